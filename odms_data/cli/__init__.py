@@ -1,0 +1,65 @@
+"""The `odms-data` command line: a thin click layer over the library.
+
+Every command's errors go through `OdmsGroup.invoke`: the project's own exceptions (and OS
+errors such as a full disk) become one line on stderr and exit code 2, never a traceback.
+Set ODMS_DEBUG=1 to see the traceback of an unexpected error.
+"""
+
+from __future__ import annotations
+
+import os
+
+import click
+
+from .. import __version__
+from ..errors import OdmsError
+
+
+def one_line(message: object) -> str:
+    return " ".join(str(message).split())
+
+
+class OdmsGroup(click.Group):
+    def invoke(self, ctx: click.Context):
+        try:
+            return super().invoke(ctx)
+        except (click.exceptions.Exit, click.ClickException, click.Abort):
+            raise
+        except (OdmsError, OSError) as e:
+            click.echo(f"odms-data: error: {one_line(e)}", err=True)
+            ctx.exit(2)
+        except KeyboardInterrupt:
+            click.echo("odms-data: interrupted; nothing was left half-written", err=True)
+            ctx.exit(130)
+        except Exception as e:
+            if os.environ.get("ODMS_DEBUG"):
+                raise
+            click.echo(
+                f"odms-data: internal error: {type(e).__name__}: {one_line(e)} "
+                "(please report it; ODMS_DEBUG=1 shows the traceback)",
+                err=True,
+            )
+            ctx.exit(3)
+
+
+@click.group(cls=OdmsGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="odms-data")
+def main() -> None:
+    """Generate, store, import and score ODMS (object depth from motion and segmentation) data.
+
+    \b
+    Example:
+      odms-data generate --split sim-val -o sim-val.zarr
+      odms-data info sim-val.zarr
+    """
+
+
+def _register() -> None:
+    from . import generate_command, store_commands
+
+    main.add_command(generate_command.generate)
+    for cmd in store_commands.COMMANDS:
+        main.add_command(cmd)
+
+
+_register()

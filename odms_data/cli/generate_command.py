@@ -1,0 +1,94 @@
+"""`odms-data generate`."""
+
+from __future__ import annotations
+
+import json
+import os
+
+import click
+
+from ..errors import InputError
+from ..generate import DEFAULT_EXAMPLES_PER_SHARD
+from ..generate import generate as generate_store
+from ..generator import PRESETS, GeneratorParams
+from ..generator import preset as make_preset
+from ..splits import check_against_manifest, load_manifest
+
+
+def _parse_param(values: tuple[str, ...]) -> dict:
+    out = {}
+    for item in values:
+        key, sep, raw = item.partition("=")
+        if not sep or not key:
+            raise InputError(f"--param '{item}': expected NAME=VALUE, e.g. --param d_max=0.9")
+        try:
+            out[key] = json.loads(raw)
+        except json.JSONDecodeError:
+            raise InputError(f"--param '{item}': value is not a number or JSON list") from None
+    return out
+
+
+@click.command()
+@click.option("--split", "split_name", help="Generate a named split of splits/ and verify its digest.")
+@click.option("-n", "--count", type=click.IntRange(min=1), help="Number of examples.")
+@click.option("--preset", type=click.Choice(sorted(PRESETS)), default=None,
+              help="Parameter preset (default: standard).")
+@click.option("--seed", type=click.IntRange(min=0), default=None, help="Random seed (default 0).")
+@click.option("--n-obs", type=click.IntRange(min=2), default=None,
+              help="Observations per example (default 10).")
+@click.option("--param", "params", multiple=True, metavar="NAME=VALUE",
+              help="Override any generator parameter, e.g. --param d_max=0.9 (repeatable).")
+@click.option("--name", "store_split", default=None,
+              help="Split name recorded in the store and its example ids (default: generated).")
+@click.option("-o", "--output", type=click.Path(), default=None,
+              help="Output store (default: <split>.zarr, or .h5 with --format hdf5).")
+@click.option("--format", "fmt", type=click.Choice(["zarr", "hdf5"]), default=None,
+              help="Store backend (default: from the output suffix, else zarr).")
+@click.option("--workers", type=click.IntRange(min=1), default=os.cpu_count() or 1,
+              show_default="all cores", help="Worker processes.")
+@click.option("--examples-per-shard", type=click.IntRange(min=1),
+              default=DEFAULT_EXAMPLES_PER_SHARD, show_default=True,
+              help="Examples per shard (one task each); does not change the content.")
+@click.option("--overwrite", is_flag=True, help="Replace an existing store.")
+def generate(split_name, count, preset, seed, n_obs, params, store_split, output, fmt, workers,
+             examples_per_shard, overwrite):
+    """Generate simulated ODMS examples into a store.
+
+    \b
+    Examples:
+      odms-data generate --split sim-val
+      odms-data generate -n 100000 --preset perturb --seed 7 -o train.zarr --workers 8
+    """
+    overrides = _parse_param(params)
+    manifest = None
+    if split_name:
+        manifest = load_manifest(split_name)
+        if manifest.kind != "generated":
+            raise InputError(f"split '{split_name}' is imported, not generated; see `odms-data import`")
+        given = [o for o, v in (("-n", count), ("--preset", preset), ("--seed", seed),
+                                ("--n-obs", n_obs), ("--param", params), ("--name", store_split)) if v]
+        if given:
+            raise InputError(f"--split {split_name} fixes its parameters; drop {', '.join(given)}")
+        gen = manifest.generator
+        count, preset, seed = manifest.count, gen["preset"], gen["seed"]
+        overrides, store_split = dict(gen.get("params", {})), split_name
+    elif count is None:
+        raise InputError("give --split NAME or -n COUNT")
+    if n_obs is not None:
+        overrides["n_obs"] = n_obs
+    preset = preset or "standard"
+    gen_params = GeneratorParams.from_json({**make_preset(preset).to_json(), **overrides})
+    store_split = store_split or "generated"
+    if output is None:
+        output = f"{store_split}.h5" if fmt == "hdf5" else f"{store_split}.zarr"
+    stderr = click.get_text_stream("stderr")
+    with click.progressbar(length=count, label=f"generating {output}", file=stderr) as bar:
+        attrs = generate_store(
+            output, count, gen_params, seed or 0, split=store_split, preset=preset, fmt=fmt,
+            workers=workers, examples_per_shard=examples_per_shard, overwrite=overwrite,
+            progress=bar.update,
+        )
+    click.echo(f"wrote {output}: {count} examples, digest {attrs.digest}")
+    if manifest is not None:
+        check_against_manifest(attrs, manifest, output)
+        click.echo(f"digest matches splits/{split_name}.json")

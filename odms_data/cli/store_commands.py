@@ -1,0 +1,123 @@
+"""`odms-data validate`, `info`, `convert` and `show`."""
+
+from __future__ import annotations
+
+import json
+
+import click
+import numpy as np
+
+from ..convert import convert as convert_store
+from ..sheet import contact_sheet
+from ..store import open_store
+from ..validate import validate as validate_store
+
+
+@click.command()
+@click.argument("store", type=click.Path())
+@click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
+def validate(store, as_json):
+    """Check a store: attributes, shapes, invariants, statistics and content digest.
+
+    Exit code 0 when valid, 1 when problems were found.
+
+    \b
+    Example:
+      odms-data validate sim-val.zarr
+    """
+    report = validate_store(store)
+    if as_json:
+        click.echo(json.dumps({"path": report.path, "ok": report.ok, "problems": report.problems,
+                               "warnings": report.warnings, "digest": report.digest}, indent=2))
+    else:
+        for w in report.warnings:
+            click.echo(f"warning: {store}: {w}")
+        for p in report.problems:
+            click.echo(f"problem: {store}: {p}")
+        click.echo(f"{store}: {'valid' if report.ok else 'INVALID'}"
+                   + (f", digest {report.digest}" if report.digest else ""))
+    if not report.ok:
+        raise click.exceptions.Exit(1)
+
+
+@click.command()
+@click.argument("store", type=click.Path())
+@click.option("--json", "as_json", is_flag=True, help="Print the attributes and summary as JSON.")
+def info(store, as_json):
+    """Summarise a store: split, domain, counts, observations, depth range, generator.
+
+    \b
+    Example:
+      odms-data info sim-val.zarr
+    """
+    with open_store(store) as s:
+        a = s.attrs
+        n_obs, d1 = s.n_obs, s.d1[~np.isnan(s.d1)]
+        summary = {
+            "path": store, "format": s.format, **a.to_json(),
+            "observations": {"min": int(n_obs.min()), "max": int(n_obs.max())},
+            "d1": {"min": float(d1.min()), "max": float(d1.max())} if len(d1) else None,
+            "empty_masks": int((s.area == 0).sum()),
+        }
+    if as_json:
+        click.echo(json.dumps(summary, indent=2))
+        return
+    gen = a.generator
+    lines = [
+        f"store       {store} ({s.format}, format version {a.format_version})",
+        f"split       {a.split} (domain {a.domain})",
+        f"examples    {a.counts['examples']} ({a.counts['labelled']} labelled), frames {a.counts['frames']}",
+        f"image size  {a.image_size[0]}x{a.image_size[1]} (height x width)",
+        f"obs/example {summary['observations']['min']}..{summary['observations']['max']}",
+        "d1 (m)      "
+        + (f"{summary['d1']['min']:.4f}..{summary['d1']['max']:.4f}" if summary["d1"] else "-"),
+        f"empty masks {summary['empty_masks']}",
+        f"digest      {a.digest}",
+    ]
+    if gen:
+        lines.append(f"generator   preset {gen['preset']}, seed {gen['seed']}")
+    if a.source:
+        lines.append(f"source      {a.source}")
+    if a.oddities:
+        lines.append(f"oddities    {len(a.oddities)} recorded (see --json)")
+    click.echo("\n".join(lines))
+
+
+@click.command()
+@click.argument("src", type=click.Path())
+@click.argument("dst", type=click.Path())
+@click.option("--format", "fmt", type=click.Choice(["zarr", "hdf5"]), default=None,
+              help="Backend of DST (default: from its suffix, .h5/.hdf5 = hdf5, else zarr).")
+@click.option("--overwrite", is_flag=True, help="Replace DST if it exists.")
+def convert(src, dst, fmt, overwrite):
+    """Copy a store to the other backend, losslessly (the content digest is checked).
+
+    \b
+    Example:
+      odms-data convert sim-val.zarr sim-val.h5
+    """
+    with open_store(src) as s:
+        total = s.n_frames
+    with click.progressbar(length=total, label=f"converting to {dst}",
+                           file=click.get_text_stream("stderr")) as bar:
+        digest = convert_store(src, dst, fmt, overwrite=overwrite, progress=bar.update)
+    click.echo(f"wrote {dst}: digest {digest}")
+
+
+@click.command()
+@click.argument("store", type=click.Path())
+@click.argument("example_id")
+@click.option("-o", "--output", type=click.Path(), required=True, help="PNG file to write.")
+def show(store, example_id, output):
+    """Draw one example's masks as a contact sheet, with z and depth under each.
+
+    \b
+    Example:
+      odms-data show sim-val.zarr sim-val/000042 -o sheet.png
+    """
+    with open_store(store) as s:
+        contact_sheet(s.example(example_id)).save(output)
+    click.echo(f"wrote {output}")
+
+
+COMMANDS = [validate, info, convert, show]

@@ -1,0 +1,51 @@
+"""Lossless conversion between the Zarr and HDF5 backends."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from .errors import StoreError
+from .masks import FrameStats
+from .store import open_store
+from .validate import BLOCK_FRAMES, recompute_digest
+from .writer import Layout, StoreWriter
+
+
+def convert(
+    src: str, dst: str, fmt: str | None = None, *, overwrite: bool = False,
+    progress: Callable[[int], None] | None = None,
+) -> str:
+    """Copy the store `src` to `dst` (backend from `fmt` or dst's suffix); returns the digest.
+
+    The content digest is recomputed from what is copied, so a corrupt source is refused and
+    nothing is left at `dst`.
+    """
+    with open_store(src) as s:
+        chunk = int(s.backend.array("masks").chunks[0])
+        per_shard = max(chunk, (BLOCK_FRAMES // chunk) * chunk)
+        layout = Layout(
+            height=s.height, width=s.width, n_frames=s.n_frames, n_examples=s.n_examples,
+            max_obs=s.frame_index.shape[1], id_width=s.backend.array("example_id").shape[1],
+            source_width=s.backend.array("source").shape[1], frames_per_chunk=chunk,
+            frames_per_shard=per_shard, examples_per_chunk=min(s.n_examples, 4096),
+        )
+        with StoreWriter(dst, fmt, overwrite=overwrite) as w:
+            w.create(layout)
+            w.write_frames(0, s.z, s.depth, FrameStats(s.area, s.largest_area, s.bbox))
+            w.write_examples(0, s.frame_index, s.d1, s.example_ids, s.sources)
+
+            def copy(start: int, block: np.ndarray) -> None:
+                w.write_masks(start, block)
+                if progress:
+                    progress(len(block))
+
+            digest, _ = recompute_digest(s, copy)
+            if digest != s.attrs.digest:
+                raise StoreError(
+                    f"{src}: content digest {digest} differs from the recorded {s.attrs.digest}; "
+                    "run `odms-data validate` on it"
+                )
+            w.commit(s.attrs)
+        return digest

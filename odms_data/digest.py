@@ -1,0 +1,56 @@
+"""The content digest: SHA-256 over the canonical content, independent of backend and chunking.
+
+See schemas/FORMAT.md, section "Content digest", for the byte-level definition.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import struct
+from collections.abc import Iterable
+
+import numpy as np
+
+DIGEST_PREFIX = b"odms-store-content/1"
+
+
+def _f64(values: np.ndarray) -> bytes:
+    """Little-endian float64 bytes with every NaN written as the one canonical quiet NaN."""
+    v = np.asarray(values, dtype="<f8").copy()
+    v[np.isnan(v)] = np.nan
+    return v.tobytes()
+
+
+def frame_digests(packed: np.ndarray, z: np.ndarray, depth: np.ndarray) -> np.ndarray:
+    """(k, 32) uint8: SHA-256 of each frame's packed mask bytes, z and depth."""
+    out = np.empty((len(packed), 32), np.uint8)
+    zb, db = _f64(z), _f64(depth)
+    for i in range(len(packed)):
+        h = hashlib.sha256(np.ascontiguousarray(packed[i]).data)
+        h.update(zb[8 * i : 8 * i + 8])
+        h.update(db[8 * i : 8 * i + 8])
+        out[i] = np.frombuffer(h.digest(), np.uint8)
+    return out
+
+
+def example_digest(example_id: str, source: str, d1: float, frames: np.ndarray) -> bytes:
+    """SHA-256 of one example: its id, source, label and the digests of its frames in order."""
+    h = hashlib.sha256(example_id.encode() + b"\0" + source.encode() + b"\0")
+    h.update(_f64(np.array([d1])))
+    h.update(struct.pack("<I", len(frames)))
+    h.update(np.ascontiguousarray(frames, np.uint8).tobytes())
+    return h.digest()
+
+
+class StoreDigest:
+    """Streams example digests, in example order, into the store digest."""
+
+    def __init__(self, height: int, width: int, n_examples: int) -> None:
+        self._h = hashlib.sha256(DIGEST_PREFIX + struct.pack("<IIQ", height, width, n_examples))
+
+    def update(self, example_digests: Iterable[bytes]) -> None:
+        for d in example_digests:
+            self._h.update(d)
+
+    def hexdigest(self) -> str:
+        return "sha256:" + self._h.hexdigest()

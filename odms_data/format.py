@@ -1,0 +1,100 @@
+"""The on-disk format: array names, dtypes and the store attributes (see schemas/FORMAT.md)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, field
+from functools import cache
+from typing import Any
+
+import numpy as np
+
+from . import __version__
+from .errors import StoreError
+from .resources import resource_dir
+
+FORMAT_VERSION = 1
+ATTRS_KEY = "odms"
+UNITS = {"z": "m", "depth": "m", "d1": "m", "area": "px", "bbox": "px"}
+DOMAINS = ("generated", "robot", "driving", "normal", "perturb", "recording")
+
+# name -> dtype; per-frame arrays have F rows, per-example arrays E rows.
+FRAME_ARRAYS = {
+    "masks": np.uint8,  # (F, H, ceil(W/8)) bit-packed, MSB first
+    "z": np.float64,  # (F,) camera position on the optical axis, m
+    "depth": np.float64,  # (F,) object depth, m; NaN where unknown
+    "area": np.int32,  # (F,) object pixels
+    "largest_area": np.int32,  # (F,) pixels of the largest 8-connected region
+    "bbox": np.int32,  # (F, 4) x0, y0, x1, y1 half-open; zeros when empty
+}
+EXAMPLE_ARRAYS = {
+    "frame_index": np.int64,  # (E, N) frame rows, z ascending, padded with -1 at the end
+    "d1": np.float64,  # (E,) depth at the closest frame, m; NaN when unlabelled
+    "example_id": np.uint8,  # (E, L) UTF-8, NUL padded
+    "source": np.uint8,  # (E, L) UTF-8, NUL padded
+}
+
+
+@dataclass
+class StoreAttrs:
+    """The root attribute `odms` of a store."""
+
+    split: str
+    domain: str
+    image_size: tuple[int, int]
+    counts: dict[str, int]
+    generator: dict[str, Any] | None = None
+    source: str | None = None
+    oddities: list[dict[str, str]] = field(default_factory=list)
+    digest: str = ""
+    complete: bool = False
+    format_version: int = FORMAT_VERSION
+    units: dict[str, str] = field(default_factory=lambda: dict(UNITS))
+    created_by: str = f"odms-data {__version__}"
+
+    def to_json(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["image_size"] = list(self.image_size)
+        return d
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any], where: str) -> StoreAttrs:
+        """Parse and check the attribute against schemas/store-attributes.schema.json."""
+        problems = attribute_problems(d)
+        if problems:
+            raise StoreError(f"{where}: store attributes are invalid: {problems[0]}")
+        d = dict(d)
+        d["image_size"] = tuple(d["image_size"])
+        return cls(**d)
+
+
+@cache
+def _attrs_validator():
+    import jsonschema
+
+    schema = json.loads((resource_dir("schemas") / "store-attributes.schema.json").read_text())
+    return jsonschema.Draft202012Validator(schema)
+
+
+def attribute_problems(d: Any) -> list[str]:
+    """Every way `d` breaks the attribute schema, one line each ('at PATH: message')."""
+    out = []
+    for e in sorted(_attrs_validator().iter_errors(d), key=lambda e: list(e.path)):
+        path = "/".join(str(p) for p in e.path) or "(root)"
+        out.append(f"at {path}: {e.message}")
+    return out
+
+
+def encode_strings(values: list[str]) -> np.ndarray:
+    """(E, L) uint8 NUL-padded UTF-8 matrix of `values` (L >= 1)."""
+    raw = [v.encode() for v in values]
+    width = max([1, *map(len, raw)])
+    out = np.zeros((len(raw), width), np.uint8)
+    for i, b in enumerate(raw):
+        out[i, : len(b)] = np.frombuffer(b, np.uint8)
+    return out
+
+
+def decode_strings(matrix: np.ndarray) -> list[str]:
+    """Inverse of `encode_strings`."""
+    return [bytes(row).rstrip(b"\0").decode() for row in np.asarray(matrix, np.uint8)]

@@ -1,0 +1,65 @@
+"""Binary masks: bit packing and the per-frame statistics stored beside them."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+cv2.setNumThreads(1)
+
+
+def packed_width(width: int) -> int:
+    """Bytes per packed row of a mask `width` pixels wide."""
+    return (width + 7) // 8
+
+
+def pack(masks: np.ndarray) -> np.ndarray:
+    """Pack (..., H, W) binary masks into (..., H, ceil(W/8)) uint8, most significant bit first."""
+    return np.packbits(masks.astype(bool, copy=False), axis=-1, bitorder="big")
+
+
+def unpack(packed: np.ndarray, width: int) -> np.ndarray:
+    """Inverse of `pack`: (..., H, ceil(W/8)) uint8 to (..., H, W) bool."""
+    return np.unpackbits(packed, axis=-1, count=width, bitorder="big").view(bool)
+
+
+@dataclass
+class FrameStats:
+    """Per-frame statistics of a block of k masks."""
+
+    area: np.ndarray  # (k,) int32, object pixels
+    largest_area: np.ndarray  # (k,) int32, pixels of the largest 8-connected region
+    bbox: np.ndarray  # (k, 4) int32, x0, y0, x1, y1 half-open; zeros when empty
+
+    @classmethod
+    def empty(cls, k: int) -> FrameStats:
+        return cls(
+            np.zeros(k, np.int32), np.zeros(k, np.int32), np.zeros((k, 4), np.int32)
+        )
+
+    def set(self, i: int, mask: np.ndarray, x_off: int = 0, y_off: int = 0) -> None:
+        """Record the statistics of `mask` (a region of a frame at x_off, y_off) as frame i."""
+        self.area[i], self.largest_area[i], self.bbox[i] = mask_stats(mask, x_off, y_off)
+
+
+def mask_stats(mask: np.ndarray, x_off: int = 0, y_off: int = 0) -> tuple[int, int, tuple]:
+    """Area, area of the largest 8-connected region and bounding box of one binary mask."""
+    m = mask.view(np.uint8) if mask.dtype == bool else (mask != 0).view(np.uint8)
+    area = cv2.countNonZero(m)
+    if area == 0:
+        return 0, 0, (0, 0, 0, 0)
+    x, y, w, h = cv2.boundingRect(m)
+    crop = np.ascontiguousarray(m[y : y + h, x : x + w])
+    n_labels, labels = cv2.connectedComponents(crop, connectivity=8, ltype=cv2.CV_32S)
+    largest = area if n_labels == 2 else int(np.bincount(labels.ravel())[1:].max())
+    return area, largest, (x + x_off, y + y_off, x + w + x_off, y + h + y_off)
+
+
+def stats_of(masks: np.ndarray) -> FrameStats:
+    """Statistics of a (k, H, W) stack of binary masks."""
+    stats = FrameStats.empty(len(masks))
+    for i, mask in enumerate(masks):
+        stats.set(i, mask)
+    return stats

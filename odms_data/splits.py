@@ -1,0 +1,50 @@
+"""Named splits: the manifests in splits/ (count, how to make or import it, content digest)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from typing import Any
+
+from .errors import DigestMismatchError, InputError
+from .format import StoreAttrs
+from .resources import resource_dir
+
+
+@dataclass(frozen=True)
+class SplitManifest:
+    """One file of splits/: what a named split holds and the digest it must have."""
+
+    name: str
+    kind: str  # "generated" or "imported"
+    count: int
+    digest: str
+    generator: dict[str, Any] | None = None  # preset, seed, params overrides (generated)
+    source: str | None = None  # what it is imported from (imported)
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> SplitManifest:
+        return cls(**d)
+
+
+def split_names() -> list[str]:
+    return sorted(p.stem for p in resource_dir("splits").glob("*.json"))
+
+
+def load_manifest(name: str) -> SplitManifest:
+    """The manifest of split `name`; an unknown name raises InputError listing the known ones."""
+    path = resource_dir("splits") / f"{name}.json"
+    if not path.is_file():
+        raise InputError(f"unknown split '{name}'; known splits: {', '.join(split_names())}")
+    return SplitManifest.from_json(json.loads(path.read_text()))
+
+
+def check_against_manifest(attrs: StoreAttrs, manifest: SplitManifest, where: str) -> None:
+    """Raise DigestMismatchError saying exactly what differs between a store and its manifest."""
+    diffs = []
+    if attrs.counts["examples"] != manifest.count:
+        diffs.append(f"{attrs.counts['examples']} examples, manifest says {manifest.count}")
+    if attrs.digest != manifest.digest:
+        diffs.append(f"digest {attrs.digest}, manifest says {manifest.digest}")
+    if diffs:
+        raise DigestMismatchError(f"{where}: does not match split '{manifest.name}': " + "; ".join(diffs))

@@ -1,0 +1,203 @@
+"""Reading a store: `open_store(path)` and the `Store` and `Example` it gives."""
+
+from __future__ import annotations
+
+import difflib
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from .backends import Backend, open_backend
+from .errors import InputError, StoreError
+from .format import EXAMPLE_ARRAYS, FRAME_ARRAYS, StoreAttrs, decode_strings
+from .masks import unpack
+
+
+@dataclass
+class Example:
+    """One ODMS example: n masks with their camera positions, depths and label."""
+
+    example_id: str
+    source: str
+    d1: float  # NaN when unlabelled
+    frames: np.ndarray  # (n,) frame rows in the store
+    z: np.ndarray  # (n,) m, ascending
+    depth: np.ndarray  # (n,) m, NaN where unknown
+    masks: np.ndarray  # (n, H, W) bool
+
+    @property
+    def n(self) -> int:
+        return len(self.frames)
+
+
+class Store:
+    """A complete odms-data store, Zarr or HDF5; small arrays are read once and cached."""
+
+    def __init__(self, backend: Backend, path: str, attrs: StoreAttrs) -> None:
+        self.backend, self.path, self.attrs = backend, path, attrs
+        self.format = backend.kind
+        self.height, self.width = attrs.image_size
+        self._masks = backend.array("masks")
+
+    # --- sizes -------------------------------------------------------------------------
+    @property
+    def n_examples(self) -> int:
+        return int(self.attrs.counts["examples"])
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.attrs.counts["frames"])
+
+    def __len__(self) -> int:
+        return self.n_examples
+
+    # --- cached small arrays -----------------------------------------------------------
+    def _read(self, name: str) -> np.ndarray:
+        try:
+            return np.asarray(self.backend.array(name)[...])
+        except Exception as e:
+            raise StoreError(f"{self.path}: array '{name}' is unreadable ({e})") from e
+
+    @cached_property
+    def z(self) -> np.ndarray:
+        return self._read("z")
+
+    @cached_property
+    def depth(self) -> np.ndarray:
+        return self._read("depth")
+
+    @cached_property
+    def area(self) -> np.ndarray:
+        return self._read("area")
+
+    @cached_property
+    def largest_area(self) -> np.ndarray:
+        return self._read("largest_area")
+
+    @cached_property
+    def bbox(self) -> np.ndarray:
+        return self._read("bbox")
+
+    @cached_property
+    def frame_index(self) -> np.ndarray:
+        return self._read("frame_index")
+
+    @cached_property
+    def d1(self) -> np.ndarray:
+        return self._read("d1")
+
+    @cached_property
+    def n_obs(self) -> np.ndarray:
+        """(E,) number of frames of each example."""
+        return (self.frame_index >= 0).sum(axis=1)
+
+    @cached_property
+    def example_ids(self) -> list[str]:
+        return self._strings("example_id")
+
+    @cached_property
+    def sources(self) -> list[str]:
+        return self._strings("source")
+
+    def _strings(self, name: str) -> list[str]:
+        try:
+            return decode_strings(self._read(name))
+        except UnicodeDecodeError as e:
+            raise StoreError(f"{self.path}: array '{name}' holds invalid UTF-8 ({e})") from e
+
+    @cached_property
+    def _id_to_index(self) -> dict[str, int]:
+        return {eid: i for i, eid in enumerate(self.example_ids)}
+
+    # --- lookup ------------------------------------------------------------------------
+    def index(self, example_id: str) -> int:
+        """Row of `example_id`; an unknown id raises InputError naming the closest ones."""
+        try:
+            return self._id_to_index[example_id]
+        except KeyError:
+            close = difflib.get_close_matches(example_id, self.example_ids, n=3)
+            hint = f"; did you mean {', '.join(close)}?" if close else ""
+            raise InputError(f"{self.path}: no example '{example_id}'{hint}") from None
+
+    def frames_of(self, i: int) -> np.ndarray:
+        row = self.frame_index[i]
+        return row[row >= 0]
+
+    # --- masks -------------------------------------------------------------------------
+    def read_packed(self, start: int, stop: int) -> np.ndarray:
+        """Packed masks of frames [start, stop)."""
+        try:
+            return np.asarray(self._masks[start:stop])
+        except Exception as e:
+            raise StoreError(
+                f"{self.path}: masks of frames {start}..{stop - 1} are unreadable ({e})"
+            ) from e
+
+    def read_masks(self, frames: np.ndarray) -> np.ndarray:
+        """(k, H, W) bool masks of the given frame rows, read in as few slices as sensible."""
+        frames = np.asarray(frames, np.int64)
+        if len(frames) == 0:
+            return np.zeros((0, self.height, self.width), bool)
+        lo, hi = int(frames.min()), int(frames.max()) + 1
+        if hi - lo <= 4 * len(frames):
+            packed = self.read_packed(lo, hi)[frames - lo]
+        else:
+            packed = np.stack([self.read_packed(f, f + 1)[0] for f in frames])
+        return unpack(packed, self.width)
+
+    def example(self, key: int | str, masks: bool = True) -> Example:
+        """Example by row or id; `masks=False` skips decoding masks (an empty array)."""
+        i = self.index(key) if isinstance(key, str) else int(key)
+        if not 0 <= i < self.n_examples:
+            raise InputError(f"{self.path}: example row {i} is out of range 0..{self.n_examples - 1}")
+        frames = self.frames_of(i)
+        return Example(
+            example_id=self.example_ids[i],
+            source=self.sources[i],
+            d1=float(self.d1[i]),
+            frames=frames,
+            z=self.z[frames],
+            depth=self.depth[frames],
+            masks=self.read_masks(frames) if masks else np.zeros((0, self.height, self.width), bool),
+        )
+
+    def __iter__(self):
+        for i in range(self.n_examples):
+            yield self.example(i)
+
+    # --- lifetime ----------------------------------------------------------------------
+    def close(self) -> None:
+        self.backend.close()
+
+    def __enter__(self) -> Store:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return (
+            f"Store({self.path!r}, {self.format}, split={self.attrs.split!r}, "
+            f"examples={self.n_examples}, frames={self.n_frames})"
+        )
+
+
+def open_store(path: str) -> Store:
+    """Open a complete store for reading; an incomplete or malformed one raises StoreError."""
+    backend = open_backend(str(path), "r")
+    try:
+        raw = backend.read_attrs()
+        if raw is None:
+            raise StoreError(f"{path}: not an odms-data store (no 'odms' attribute)")
+        if raw.get("complete") is not True:
+            raise StoreError(
+                f"{path}: store is incomplete (an interrupted write?); re-run the command that made it"
+            )
+        missing = sorted((set(FRAME_ARRAYS) | set(EXAMPLE_ARRAYS)) - backend.names())
+        if missing:
+            raise StoreError(f"{path}: store lacks the array(s) {', '.join(missing)}")
+        return Store(backend, str(path), StoreAttrs.from_json(raw, str(path)))
+    except BaseException:
+        backend.close()
+        raise

@@ -1,0 +1,199 @@
+"""Checking a store against schemas/FORMAT.md: attributes, shapes, invariants, statistics, digest."""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .backends import open_backend
+from .digest import StoreDigest, example_digest, frame_digests
+from .errors import InputError, OdmsError
+from .format import EXAMPLE_ARRAYS, FRAME_ARRAYS, attribute_problems
+from .masks import mask_stats, packed_width, unpack
+from .splits import load_manifest, split_names
+from .store import Store, open_store
+
+BLOCK_FRAMES = 1024
+Z_ODDITY = "z-not-increasing"
+
+
+@dataclass
+class Report:
+    """What `validate` found: problems make a store invalid, warnings are recorded oddities."""
+
+    path: str
+    problems: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    digest: str | None = None
+
+    @property
+    def ok(self) -> bool:
+        return not self.problems
+
+
+def recompute_digest(
+    store: Store, visit: Callable[[int, np.ndarray], None] | None = None
+) -> tuple[str, np.ndarray]:
+    """Stream all masks once; returns the content digest and the (F, 32) frame digests.
+
+    `visit(start, packed_block)` sees every block of packed masks as it is read.
+    """
+    fd = np.empty((store.n_frames, 32), np.uint8)
+    for start in range(0, store.n_frames, BLOCK_FRAMES):
+        block = store.read_packed(start, min(start + BLOCK_FRAMES, store.n_frames))
+        stop = start + len(block)
+        fd[start:stop] = frame_digests(block, store.z[start:stop], store.depth[start:stop])
+        if visit:
+            visit(start, block)
+    digest = StoreDigest(store.height, store.width, store.n_examples)
+    digest.update(
+        example_digest(store.example_ids[i], store.sources[i], store.d1[i], fd[store.frames_of(i)])
+        for i in range(store.n_examples)
+    )
+    return digest.hexdigest(), fd
+
+
+def validate(path: str) -> Report:
+    """Every problem of the store at `path`, one line each; never raises for a bad store."""
+    report = Report(str(path))
+    try:
+        backend = open_backend(str(path), "r")
+    except OdmsError as e:
+        report.problems.append(str(e))
+        return report
+    try:
+        raw = backend.read_attrs()
+        if raw is None:
+            report.problems.append("no 'odms' attribute: not an odms-data store")
+            return report
+        report.problems += [f"attributes {p}" for p in attribute_problems(raw)]
+        if raw.get("complete") is not True:
+            report.problems.append("store is incomplete (an interrupted write?)")
+        missing = sorted((set(FRAME_ARRAYS) | set(EXAMPLE_ARRAYS)) - backend.names())
+        if missing:
+            report.problems.append(f"missing array(s): {', '.join(missing)}")
+        if report.problems:
+            return report
+        _check_shapes(backend, raw, report)
+    except OdmsError as e:
+        report.problems.append(str(e))
+    finally:
+        backend.close()
+    if report.problems:
+        return report
+    try:
+        with open_store(str(path)) as store:
+            _check_content(store, report)
+    except OdmsError as e:
+        report.problems.append(str(e))
+    return report
+
+
+def _check_shapes(backend, raw: dict, report: Report) -> None:
+    F, E = raw["counts"]["frames"], raw["counts"]["examples"]
+    H, W = raw["image_size"]
+    expected = {
+        "masks": (F, H, packed_width(W)), "z": (F,), "depth": (F,), "area": (F,),
+        "largest_area": (F,), "bbox": (F, 4), "d1": (E,),
+    }
+    dtypes = {**FRAME_ARRAYS, **EXAMPLE_ARRAYS}
+    for name, dtype in dtypes.items():
+        arr = backend.array(name)
+        shape = tuple(arr.shape)
+        if name in expected and shape != expected[name]:
+            report.problems.append(f"array '{name}' has shape {shape}, expected {expected[name]}")
+        elif name not in expected and (len(shape) != 2 or shape[0] != E):
+            report.problems.append(f"array '{name}' has shape {shape}, expected ({E}, width)")
+        if np.dtype(arr.dtype) != np.dtype(dtype):
+            report.problems.append(f"array '{name}' has dtype {arr.dtype}, expected {np.dtype(dtype)}")
+
+
+def _check_content(store: Store, report: Report) -> None:
+    P = report.problems
+    F, E = store.n_frames, store.n_examples
+    fi = store.frame_index
+    if fi.size and (fi.min() < -1 or fi.max() >= F):
+        P.append(f"frame_index holds values outside -1..{F - 1}")
+        return
+    padded = fi < 0
+    if np.any(padded[:, :-1] & ~padded[:, 1:]):
+        row = int(np.nonzero((padded[:, :-1] & ~padded[:, 1:]).any(axis=1))[0][0])
+        P.append(f"example {store.example_ids[row]}: -1 padding is followed by a frame index")
+    n_obs = store.n_obs
+    for i in np.nonzero(n_obs < 2)[0][:5]:
+        P.append(f"example {store.example_ids[i]}: has {n_obs[i]} frame(s), at least 2 needed")
+    if not np.all(np.isfinite(store.z)):
+        P.append(f"z is not finite at frame(s) {_first(np.nonzero(~np.isfinite(store.z))[0])}")
+    excused = {o["example"] for o in store.attrs.oddities if o["kind"] == Z_ODDITY}
+    z = np.where(fi >= 0, store.z[np.maximum(fi, 0)], np.inf)
+    steps = np.diff(z, axis=1)
+    bad = np.nonzero(np.any(steps <= 0, axis=1) & (n_obs >= 2))[0]
+    for i in bad:
+        msg = f"example {store.example_ids[i]}: z is not strictly increasing"
+        (report.warnings if store.example_ids[i] in excused else P).append(
+            msg + (" (recorded oddity)" if store.example_ids[i] in excused else "")
+        )
+    d1 = store.d1
+    labelled = ~np.isnan(d1)
+    wrong = labelled & ~(np.isfinite(d1) & (d1 > 0))
+    for i in np.nonzero(wrong)[0][:5]:
+        P.append(f"example {store.example_ids[i]}: d1 = {d1[i]} is not a positive depth")
+    if int(labelled.sum()) != store.attrs.counts["labelled"]:
+        P.append(f"counts.labelled is {store.attrs.counts['labelled']}, but {int(labelled.sum())} "
+                 "examples have d1")
+    ids = store.example_ids
+    if len(set(ids)) != E:
+        dup = sorted(x for x, c in Counter(ids).items() if c > 1)[:3]
+        P.append(f"example ids are not unique: {', '.join(dup)}")
+    if any(not x for x in ids):
+        P.append("an example id is empty")
+    _check_masks(store, report)
+
+
+def _check_masks(store: Store, report: Report) -> None:
+    W, pad_bits = store.width, packed_width(store.width) * 8 - store.width
+    pad_mask = np.uint8((1 << pad_bits) - 1) if pad_bits else None
+    wrong_stats: list[int] = []
+
+    def visit(start: int, block: np.ndarray) -> None:
+        if pad_mask is not None and np.any(block[:, :, -1] & pad_mask):
+            report.problems.append(f"masks of frames {start}..: padding bits are not zero")
+        masks = unpack(block, W)
+        for j, m in enumerate(masks):
+            f = start + j
+            area, largest, bbox = mask_stats(m)
+            if (area != store.area[f] or largest != store.largest_area[f]
+                    or tuple(store.bbox[f]) != bbox):
+                wrong_stats.append(f)
+
+    try:
+        digest, _ = recompute_digest(store, visit)
+    except OdmsError as e:
+        report.problems.append(f"{e}; the digest could not be recomputed")
+        return
+    if wrong_stats:
+        report.problems.append(
+            f"stored area/largest_area/bbox differ from the masks at {len(wrong_stats)} frame(s), "
+            f"first {_first(wrong_stats)}"
+        )
+    report.digest = digest
+    if digest != store.attrs.digest:
+        report.problems.append(f"content digest {digest} differs from the recorded {store.attrs.digest}")
+    if store.attrs.split in split_names():
+        try:
+            manifest = load_manifest(store.attrs.split)
+        except InputError as e:
+            report.problems.append(str(e))
+            return
+        if manifest.digest != digest:
+            report.problems.append(
+                f"content digest {digest} differs from splits/{manifest.name}.json ({manifest.digest})"
+            )
+
+
+def _first(values, k: int = 5) -> str:
+    values = list(values)
+    return ", ".join(str(int(v)) for v in values[:k]) + (", ..." if len(values) > k else "")
