@@ -90,7 +90,7 @@ class ZarrBackend(Backend):
 
         return self.group.create_array(
             name, shape=shape, dtype=dtype, chunks=chunks, shards=shards,
-            compressors=ZstdCodec(level=ZSTD_LEVEL), fill_value=0,
+            compressors=ZstdCodec(level=ZSTD_LEVEL, checksum=True), fill_value=0,
             config={"write_empty_chunks": True},  # skipping the per-chunk emptiness scan is 3x faster
         )
 

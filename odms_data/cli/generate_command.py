@@ -13,6 +13,7 @@ from ..generate import generate as generate_store
 from ..generator import PRESETS, GeneratorParams
 from ..generator import preset as make_preset
 from ..splits import check_against_manifest, load_manifest
+from .progress import progress
 
 
 def _parse_param(values: tuple[str, ...]) -> dict:
@@ -81,12 +82,11 @@ def generate(split_name, count, preset, seed, n_obs, params, store_split, output
     store_split = store_split or "generated"
     if output is None:
         output = f"{store_split}.h5" if fmt == "hdf5" else f"{store_split}.zarr"
-    stderr = click.get_text_stream("stderr")
-    with click.progressbar(length=count, label=f"generating {output}", file=stderr) as bar:
+    with progress(count, f"generating {output}") as update:
         attrs = generate_store(
             output, count, gen_params, seed or 0, split=store_split, preset=preset, fmt=fmt,
             workers=workers, examples_per_shard=examples_per_shard, overwrite=overwrite,
-            progress=bar.update,
+            progress=update,
         )
     click.echo(f"wrote {output}: {count} examples, digest {attrs.digest}")
     if manifest is not None:

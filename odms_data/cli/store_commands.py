@@ -11,6 +11,7 @@ from ..convert import convert as convert_store
 from ..sheet import contact_sheet
 from ..store import open_store
 from ..validate import validate as validate_store
+from .progress import progress
 
 
 @click.command()
@@ -98,9 +99,8 @@ def convert(src, dst, fmt, overwrite):
     """
     with open_store(src) as s:
         total = s.n_frames
-    with click.progressbar(length=total, label=f"converting to {dst}",
-                           file=click.get_text_stream("stderr")) as bar:
-        digest = convert_store(src, dst, fmt, overwrite=overwrite, progress=bar.update)
+    with progress(total, f"converting to {dst}") as update:
+        digest = convert_store(src, dst, fmt, overwrite=overwrite, progress=update)
     click.echo(f"wrote {dst}: digest {digest}")
 
 

@@ -1,0 +1,124 @@
+"""The odms-data command line, run as users run it: subprocesses with real files."""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from PIL import Image
+
+from odms_data.generate import generate
+from odms_data.generator import PRESETS
+from odms_data.store import open_store
+from odms_data.validate import validate
+
+
+def odms(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "odms_data.cli", *args], capture_output=True, text=True, cwd=cwd
+    )
+
+
+def assert_one_line_error(result: subprocess.CompletedProcess, *fragments: str) -> None:
+    assert result.returncode == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("odms-data: error: "), result.stderr
+    assert "Traceback" not in result.stderr
+    for f in fragments:
+        assert f in lines[0], lines[0]
+
+
+def test_generate_named_split_matches_its_manifest(tmp_path):
+    out = tmp_path / "sim-val.zarr"
+    r = odms("generate", "--split", "sim-val", "-o", str(out), "--workers", "2")
+    assert r.returncode == 0, r.stderr
+    assert "digest matches splits/sim-val.json" in r.stdout
+    assert open_store(str(out)).n_examples == 2000
+
+
+def test_info_show_and_validate(tmp_path):
+    out = tmp_path / "s.h5"
+    assert odms("generate", "-n", "12", "--preset", "perturb", "--seed", "3", "--n-obs", "5",
+                "-o", str(out)).returncode == 0
+    info = odms("info", str(out))
+    assert info.returncode == 0
+    assert "12 (12 labelled), frames 60" in info.stdout and "hdf5" in info.stdout
+    assert "preset perturb, seed 3" in info.stdout
+    sheet = tmp_path / "sheet.png"
+    r = odms("show", str(out), "generated/000004", "-o", str(sheet))
+    assert r.returncode == 0, r.stderr
+    with Image.open(sheet) as im:
+        assert im.width > 500 and im.height > 100
+    v = odms("validate", str(out))
+    assert v.returncode == 0 and "valid" in v.stdout
+
+
+def test_validate_exits_1_and_lists_problems(tmp_path):
+    out = tmp_path / "s.zarr"
+    assert odms("generate", "-n", "4", "-o", str(out)).returncode == 0
+    (out / "d1" / "c" / "0").unlink()
+    v = odms("validate", str(out))
+    assert v.returncode == 1
+    assert "problem:" in v.stdout and "INVALID" in v.stdout
+
+
+@pytest.mark.parametrize("args,fragments", [
+    (["generate"], ["give --split NAME or -n COUNT"]),
+    (["generate", "--split", "sim-nope"], ["unknown split 'sim-nope'", "sim-val"]),
+    (["generate", "--split", "sim-val", "-n", "3"], ["drop -n"]),
+    (["generate", "-n", "2", "--param", "d_min=abc"], ["not a number or JSON list"]),
+    (["generate", "-n", "2", "--param", 'd_min="abc"'], ["wrong type"]),
+    (["generate", "-n", "2", "--param", "colour=1"], ["unknown name(s) colour"]),
+    (["generate", "-n", "2", "--param", "d_min"], ["expected NAME=VALUE"]),
+    (["generate", "-n", "2", "--param", "d_max=0.15"], ["dz_min"]),
+    (["info", "nowhere.zarr"], ["nowhere.zarr: no such store"]),
+    (["validate", "nowhere.zarr"], []),
+    (["show", "nowhere.zarr", "x", "-o", "x.png"], ["no such store"]),
+])
+def test_bad_arguments_get_one_line_and_exit_2(tmp_path, args, fragments):
+    r = odms(*args, cwd=tmp_path)
+    if args[0] == "validate":
+        assert r.returncode == 1 and "no such store" in r.stdout
+        return
+    assert_one_line_error(r, *fragments)
+
+
+def test_existing_output_and_unknown_example(tmp_path):
+    out = tmp_path / "s.zarr"
+    assert odms("generate", "-n", "2", "-o", str(out)).returncode == 0
+    assert_one_line_error(odms("generate", "-n", "2", "-o", str(out)), "already exists", "--overwrite")
+    assert_one_line_error(odms("show", str(out), "generated/000009", "-o", "x.png", cwd=tmp_path),
+                          "no example 'generated/000009'")
+    assert_one_line_error(odms("convert", str(out), str(out)), "already exists")
+
+
+def test_help_of_every_command_has_an_example():
+    for cmd in ("generate", "validate", "info", "convert", "show"):
+        r = odms(cmd, "--help")
+        assert r.returncode == 0 and "Example" in r.stdout and "odms-data " + cmd in r.stdout
+
+
+@pytest.mark.parametrize("suffix", [".zarr", ".h5"])
+def test_killed_generation_never_looks_complete_and_reruns_cleanly(tmp_path, suffix):
+    out = tmp_path / f"big{suffix}"
+    args = ["generate", "-n", "1500", "--seed", "4", "-o", str(out), "--workers", "1",
+            "--examples-per-shard", "50"]
+    proc = subprocess.Popen([sys.executable, "-m", "odms_data.cli", *args],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    partial = Path(str(out) + ".partial")
+    deadline = time.monotonic() + 60
+    while not partial.exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    time.sleep(0.3)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    assert not out.exists()
+    assert not validate(str(out)).ok
+    rerun = odms(*args)
+    assert rerun.returncode == 0, rerun.stderr
+    assert not partial.exists()
+    reference = generate(str(tmp_path / "ref.zarr"), 1500, PRESETS["standard"], 4, workers=2)
+    assert open_store(str(out)).attrs.digest == reference.digest

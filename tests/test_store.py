@@ -1,0 +1,191 @@
+"""Stores: generation into Zarr and HDF5, determinism, conversion, validation of corruption."""
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+import zarr
+
+from odms_data.convert import convert
+from odms_data.errors import InputError, StoreError, StoreExistsError, StoreLockedError
+from odms_data.generate import generate
+from odms_data.generator import PRESETS, render_masks, sample_example
+from odms_data.masks import pack, stats_of, unpack
+from odms_data.store import open_store
+from odms_data.validate import validate
+from odms_data.writer import StoreWriter
+
+PERTURB = PRESETS["perturb"]
+
+
+@pytest.fixture(scope="module")
+def small_zarr(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("s") / "small.zarr"
+    generate(str(path), 30, PERTURB, 5, split="small", examples_per_shard=8)
+    return path
+
+
+def test_pack_unpack_round_trip_for_odd_widths():
+    rng = np.random.default_rng(0)
+    for width in (8, 13, 640):
+        m = rng.random((3, 7, width)) < 0.5
+        np.testing.assert_array_equal(unpack(pack(m), width), m)
+
+
+def test_store_holds_what_the_generator_draws(small_zarr):
+    with open_store(str(small_zarr)) as s:
+        assert (s.n_examples, s.n_frames) == (30, 300)
+        assert s.example_ids[7] == "small/000007"
+        for i in (0, 7, 29):
+            spec = sample_example(PERTURB, 5, i)
+            ex = s.example(f"small/{i:06d}")
+            expected = render_masks(spec, PERTURB).astype(bool)
+            np.testing.assert_array_equal(ex.masks, expected)
+            np.testing.assert_array_equal(ex.z, spec.z)
+            assert ex.d1 == spec.z[0]
+            stats = stats_of(expected)
+            np.testing.assert_array_equal(s.area[ex.frames], stats.area)
+            np.testing.assert_array_equal(s.largest_area[ex.frames], stats.largest_area)
+            np.testing.assert_array_equal(s.bbox[ex.frames], stats.bbox)
+
+
+def test_digest_ignores_workers_shard_size_and_backend(tmp_path, small_zarr):
+    reference = open_store(str(small_zarr)).attrs.digest
+    a = generate(str(tmp_path / "a.zarr"), 30, PERTURB, 5, split="small", workers=2, examples_per_shard=5)
+    b = generate(str(tmp_path / "b.h5"), 30, PERTURB, 5, split="small", workers=2, examples_per_shard=13)
+    c = generate(str(tmp_path / "c.h5"), 30, PERTURB, 5, split="small", workers=1, examples_per_shard=30)
+    assert a.digest == b.digest == c.digest == reference
+    other = generate(str(tmp_path / "d.zarr"), 30, PERTURB, 6, split="small")
+    assert other.digest != reference
+
+
+def test_zarr_hdf5_round_trip_is_lossless(tmp_path, small_zarr):
+    h5 = tmp_path / "copy.h5"
+    back = tmp_path / "back.zarr"
+    d1 = convert(str(small_zarr), str(h5))
+    d2 = convert(str(h5), str(back))
+    src = open_store(str(small_zarr))
+    assert d1 == d2 == src.attrs.digest
+    for path in (h5, back):
+        with open_store(str(path)) as s:
+            assert s.format == ("hdf5" if path.suffix == ".h5" else "zarr")
+            for name in ("z", "depth", "area", "largest_area", "bbox", "frame_index", "d1"):
+                np.testing.assert_array_equal(getattr(s, name), getattr(src, name))
+            assert s.example_ids == src.example_ids
+            np.testing.assert_array_equal(s.read_packed(0, s.n_frames), src.read_packed(0, src.n_frames))
+            assert validate(str(path)).ok
+
+
+def test_validate_accepts_a_good_store(small_zarr):
+    report = validate(str(small_zarr))
+    assert report.ok, report.problems
+    assert report.digest == open_store(str(small_zarr)).attrs.digest
+
+
+def _copy(src: Path, dst: Path) -> Path:
+    shutil.copytree(src, dst)
+    return dst
+
+
+def test_validate_finds_a_flipped_byte_in_a_shard(tmp_path, small_zarr):
+    bad = _copy(small_zarr, tmp_path / "flip.zarr")
+    shard = bad / "masks" / "c" / "1" / "0" / "0"
+    data = bytearray(shard.read_bytes())
+    data[len(data) // 3] ^= 0xFF
+    shard.write_bytes(bytes(data))
+    report = validate(str(bad))
+    assert not report.ok
+    assert any("frames" in p or "digest" in p for p in report.problems), report.problems
+
+
+def test_validate_finds_a_missing_shard(tmp_path, small_zarr):
+    bad = _copy(small_zarr, tmp_path / "missing.zarr")
+    (bad / "masks" / "c" / "2" / "0" / "0").unlink()
+    report = validate(str(bad))
+    assert any("digest" in p for p in report.problems), report.problems
+    assert any("area/largest_area/bbox differ" in p for p in report.problems)
+
+
+def test_validate_finds_edited_attributes_and_statistics(tmp_path, small_zarr):
+    bad = _copy(small_zarr, tmp_path / "attrs.zarr")
+    meta = json.loads((bad / "zarr.json").read_text())
+    meta["attributes"]["odms"]["counts"]["examples"] = 31
+    (bad / "zarr.json").write_text(json.dumps(meta))
+    assert any("shape" in p for p in validate(str(bad)).problems)
+
+    bad2 = _copy(small_zarr, tmp_path / "stats.zarr")
+    area = zarr.open_array(store=str(bad2), path="area", mode="r+")
+    area[5] = area[5] + 1
+    problems = validate(str(bad2)).problems
+    assert any("differ from the masks at 1 frame(s), first 5" in p for p in problems), problems
+
+    bad3 = _copy(small_zarr, tmp_path / "d1.zarr")
+    zarr.open_array(store=str(bad3), path="d1", mode="r+")[3] = -1.0
+    problems = validate(str(bad3)).problems
+    assert any("small/000003: d1 = -1.0" in p for p in problems)
+    assert any("digest" in p for p in problems)
+
+
+def test_validate_finds_a_truncated_array(tmp_path, small_zarr):
+    bad = _copy(small_zarr, tmp_path / "trunc.zarr")
+    meta_path = bad / "z" / "zarr.json"
+    meta = json.loads(meta_path.read_text())
+    meta["shape"] = [200]
+    meta_path.write_text(json.dumps(meta))
+    assert any("array 'z' has shape (200,)" in p for p in validate(str(bad)).problems)
+
+
+def test_validate_reports_a_store_that_does_not_match_its_manifest(tmp_path):
+    # a store calling itself sim-val but holding other content
+    path = tmp_path / "fake.zarr"
+    generate(str(path), 3, PRESETS["standard"], 1, split="sim-val")
+    problems = validate(str(path)).problems
+    assert any("differs from splits/sim-val.json" in p for p in problems), problems
+
+
+def test_incomplete_store_is_refused(tmp_path, small_zarr):
+    bad = _copy(small_zarr, tmp_path / "incomplete.zarr")
+    meta = json.loads((bad / "zarr.json").read_text())
+    del meta["attributes"]["odms"]["complete"]
+    (bad / "zarr.json").write_text(json.dumps(meta))
+    with pytest.raises(StoreError, match="incomplete"):
+        open_store(str(bad))
+    assert any("incomplete" in p for p in validate(str(bad)).problems)
+
+
+def test_existing_store_is_not_overwritten_without_asking(tmp_path):
+    path = tmp_path / "x.zarr"
+    first = generate(str(path), 2, PRESETS["standard"], 1)
+    with pytest.raises(StoreExistsError, match="--overwrite"):
+        generate(str(path), 2, PRESETS["standard"], 2)
+    assert open_store(str(path)).attrs.digest == first.digest
+    second = generate(str(path), 2, PRESETS["standard"], 2, overwrite=True)
+    assert open_store(str(path)).attrs.digest == second.digest != first.digest
+    assert not Path(str(path) + ".replaced").exists()
+
+
+def test_a_second_writer_is_refused_while_the_first_writes(tmp_path):
+    path = tmp_path / "busy.zarr"
+    with StoreWriter(str(path)):
+        with pytest.raises(StoreLockedError, match="another odms-data process"):
+            generate(str(path), 2, PRESETS["standard"], 1)
+    generate(str(path), 2, PRESETS["standard"], 1)  # the lock is released afterwards
+    assert open_store(str(path)).n_examples == 2
+
+
+@pytest.mark.parametrize("name", ["fail.zarr", "fail.h5"])
+def test_failed_write_leaves_nothing(tmp_path, name):
+    def stop_after_first_shard(done: int) -> None:
+        raise RuntimeError("stopped")
+
+    with pytest.raises(RuntimeError, match="stopped"):
+        generate(str(tmp_path / name), 20, PRESETS["standard"], 1, examples_per_shard=5,
+                 progress=stop_after_first_shard)
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_unknown_example_id_names_close_matches(small_zarr):
+    with pytest.raises(InputError, match="did you mean small/000012"):
+        open_store(str(small_zarr)).example("small/00012")
