@@ -1,3 +1,23 @@
-"""odms-data: generate, store, import and score ODMS (object depth via motion and segmentation) data."""
+"""odms-data: generate, store, import and score ODMS (object depth via motion and segmentation) data.
+
+The library API that the `odms-data` command line is a thin layer over:
+
+    import odms_data
+    odms_data.generate("train.zarr", 10_000, odms_data.preset("perturb"), seed=7, workers=2)
+    with odms_data.open_store("train.zarr") as store:
+        example = store.example(0)        # masks (n, H, W) bool, z, depth, d1, ...
+"""
 
 __version__ = "0.1.0"
+
+from .convert import convert  # noqa: E402
+from .errors import InputError, OdmsError, StoreError  # noqa: E402
+from .generate import generate  # noqa: E402
+from .generator import PRESETS, GeneratorParams, preset  # noqa: E402
+from .store import Example, Store, open_store  # noqa: E402
+from .validate import validate  # noqa: E402
+
+__all__ = [
+    "Example", "GeneratorParams", "InputError", "OdmsError", "PRESETS", "Store", "StoreError",
+    "convert", "generate", "open_store", "preset", "validate",
+]
