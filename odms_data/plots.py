@@ -10,7 +10,8 @@ from .errors import InputError
 from .scoring import ScoreReport
 
 
-def _pyplot():
+def pyplot():
+    """matplotlib.pyplot on the Agg backend; InputError saying how to install it when missing."""
     try:
         import matplotlib
     except ImportError:
@@ -25,7 +26,7 @@ def _pyplot():
 
 def plot_errors(report: ScoreReport, path: str) -> None:
     """Scatter of each example's percent error against its true depth d1, with the binned median."""
-    plt = _pyplot()
+    plt = pyplot()
     splits = [s for s in report.scores if s.split in report.errors]
     cols = min(4, len(splits))
     rows = math.ceil(len(splits) / cols)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import click
@@ -53,6 +54,10 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
         raise InputError("give at most one of --json and --markdown")
     if bool(entry) != bool(name):
         raise InputError("--entry and --name go together: --name NAME --entry OUT.json")
+    if plot:
+        from ..plots import pyplot
+
+        pyplot()  # fail before scoring when matplotlib is missing
     preds = read_predictions(predictions)
     stores = find_stores(data_locations(data))
     truths = {split: load_truth(path) for split, path in stores.items()}
@@ -114,7 +119,7 @@ def vosde(stores, data, n_obs, output):
         found = find_stores(data_locations(data))
         paths = [found[s] for s in sorted(found, key=split_order)]
     rows, lines = [], []
-    with click.progressbar(paths, label="VOS-DE", file=click.get_text_stream("stderr")) as bar:
+    with click.progressbar(paths, label="VOS-DE", file=sys.stderr) as bar:
         for p in bar:
             with open_store(str(p)) as s:
                 r = run_vosde(s, n_obs)
