@@ -80,7 +80,8 @@ class SplitTruth:
 
     @property
     def labelled_ids(self) -> list[str]:
-        return [e for e, d in zip(self.example_ids, self.d1, strict=True) if not np.isnan(d)]
+        keep = (~np.isnan(self.d1)).tolist()
+        return [e for e, k in zip(self.example_ids, keep, strict=True) if k]
 
 
 def load_truth(path: Path) -> SplitTruth:

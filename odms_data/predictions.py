@@ -146,7 +146,7 @@ def read_predictions(path: str | Path) -> Predictions:
             raise InputError(f"{path}: not a readable CSV file ({' '.join(str(e).split())})") from None
         _too_many_fields(path, int(m[2]), int(m[3]))
     frame.columns = list(COLUMNS)
-    frame = frame.apply(lambda col: col.str.strip())
+    frame = pd.DataFrame({c: [v.strip() for v in frame[c].tolist()] for c in frame.columns})
     frame["line"] = np.arange(2, len(frame) + 2)
     # a final newline makes no row; blank lines anywhere else are errors
     blank = (frame[list(COLUMNS)] == "").all(axis=1).to_numpy()
@@ -191,7 +191,8 @@ def check_against(
             f"{path}: unknown split{'s' if len(unknown) > 1 else ''} {_listing(unknown)} in "
             f"{_lines(f, ~known, 'split')}; the ground-truth stores hold: {have}"
         )
-    prefixed = np.array([e.startswith(s + "/") for s, e in zip(f["split"], f["example_id"], strict=True)])
+    pairs = zip(f["split"].tolist(), f["example_id"].tolist(), strict=True)
+    prefixed = np.array([e.startswith(s + "/") for s, e in pairs])
     if not prefixed.all():
         raise InputError(
             f"{path}: example_id does not start with '<split>/' in {_lines(f, ~prefixed, 'example_id')}"
@@ -212,7 +213,7 @@ def check_against(
             raise InputError(
                 f"{path}: example ids not in split {split} in {_lines(rows, unknown, 'example_id')}"
             )
-        given = set(rows["example_id"])
+        given = set(rows["example_id"].tolist())
         absent = [e for e in required[split] if e not in given]
         missing[split] = len(absent)
         if absent and not allow_partial:

@@ -119,7 +119,7 @@ def score(preds: Predictions, truths: dict[str, SplitTruth], *, allow_partial: b
         t = truths[split]
         rows = f[f["split"] == split]
         index = {e: i for i, e in enumerate(t.example_ids)}
-        idx = np.fromiter((index[e] for e in rows["example_id"]), np.int64, len(rows))
+        idx = np.array([index[e] for e in rows["example_id"].tolist()], np.int64)
         truth = t.d1[idx]
         keep = ~np.isnan(truth)
         ignored += int((~keep).sum())
