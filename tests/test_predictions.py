@@ -160,6 +160,20 @@ def test_no_stores_or_missing_file_are_one_line_errors(tmp_path, data):
     assert r.exit_code == 2 and "no such predictions file" in r.stderr
 
 
+def test_hdf5_stores_serve_their_split_by_attribute(tmp_path):
+    folder = tmp_path / "h5"
+    folder.mkdir()
+    ex = [{"z": [d, d + 0.1], "areas": [100, 64], "d1": d} for d in D1]
+    make_store(folder / "any-name.h5", "tiny-val", ex)
+    p = write(tmp_path, "\n".join([HEADER, *truth_rows()]))
+    r = CliRunner().invoke(main, ["score", str(p), "--data", str(folder)])
+    assert r.exit_code == 0, r.output
+    assert "tiny-val " in r.stdout
+    make_store(folder / "again.zarr", "tiny-val", ex)
+    r = CliRunner().invoke(main, ["score", str(p), "--data", str(folder)])
+    assert r.exit_code == 2 and "two stores hold split tiny-val" in r.stderr
+
+
 def test_data_from_environment_variable(tmp_path, data):
     p = write(tmp_path, "\n".join([HEADER, *truth_rows()]))
     r = CliRunner(env={"ODMS_DATA": str(data)}).invoke(main, ["score", str(p)])
