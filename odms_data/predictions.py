@@ -105,9 +105,19 @@ def _check_header(path: str, first: str) -> None:
                 )
     if _looks_like_data(fields):
         raise InputError(f"{path}: the header line is missing; the first line must be '{HEADER}'")
+    if sorted(fields) == sorted(COLUMNS):
+        raise InputError(
+            f"{path}: header {first.strip()!r} has the columns in another order; write '{HEADER}'"
+        )
     hints = []
     for i, f in enumerate(fields):
         if i < len(COLUMNS) and f == COLUMNS[i]:
+            continue
+        if f in COLUMNS:
+            hints.append(f"column {i + 1} {f!r} is out of place")
+            continue
+        if i >= len(COLUMNS):
+            hints.append(f"extra column {i + 1} {f!r}")
             continue
         close = difflib.get_close_matches(f, COLUMNS, n=1, cutoff=0.5)
         hints.append(f"column {i + 1} {f!r}" + (f" (did you mean {close[0]!r}?)" if close else ""))
