@@ -12,6 +12,11 @@ Run by hand: `python benchmarks/score.py --data DIR` (DIR holds the eight offici
 - the two commands end to end in a fresh interpreter (imports included).
 
 Each in-process figure is the median of --repeat runs.
+
+Measured 2026-11-23 on a shared 2-core machine, stores from the official importer: VOS-DE from
+stored statistics 0.37 s for all 15,650 examples, 324x faster than decoding masks (120 s,
+scaled from 100 examples per split; estimates equal to 1.5e-13 m); scoring 15,650 rows 0.23 s,
+16.6x a bare pandas.read_csv of the file; the commands end to end 2.6 s and 2.0 s.
 """
 
 from __future__ import annotations
