@@ -58,7 +58,7 @@ def _listing(items: Sequence[str], total: int | None = None) -> str:
 
 
 def _lines(frame: pd.DataFrame, mask: np.ndarray, what: str = "") -> str:
-    """'N rows, first at line 4 ('x'), line 9 ('y'), ...' for the rows selected by `mask`."""
+    """'N rows: line 4 ('x'), line 9 ('y'), ...' for the rows selected by `mask`."""
     bad = frame[mask].head(SHOW)
     shown = [f"line {r.line}" + (f" ({getattr(r, what)!r})" if what else "") for r in bad.itertuples()]
     n = int(mask.sum())
@@ -126,7 +126,7 @@ def _check_header(path: str, first: str) -> None:
     raise InputError(f"{path}: header {first.strip()!r} is not '{HEADER}': {'; '.join(hints)}")
 
 
-def _too_many_fields(path: str, line: int, fields: int) -> None:
+def _field_count_error(path: str, line: int, fields: int) -> None:
     hint = " (a decimal comma? d1 must use '.')" if fields == 4 else ""
     raise InputError(f"{path}: line {line} has {fields} fields, expected 3{hint}") from None
 
@@ -149,12 +149,12 @@ def read_predictions(path: str | Path) -> Predictions:
                 skip_blank_lines=False, skipinitialspace=True, index_col=False,
             )
     except pd.errors.ParserWarning:
-        _too_many_fields(path, 2, len(next(csv.reader([text.splitlines()[1]]))))
+        _field_count_error(path, 2, len(next(csv.reader([text.splitlines()[1]]))))
     except pd.errors.ParserError as e:
         m = re.search(r"Expected (\d+) fields in line (\d+), saw (\d+)", str(e))
         if not m:
             raise InputError(f"{path}: not a readable CSV file ({' '.join(str(e).split())})") from None
-        _too_many_fields(path, int(m[2]), int(m[3]))
+        _field_count_error(path, int(m[2]), int(m[3]))
     frame.columns = list(COLUMNS)
     frame = pd.DataFrame({c: [v.strip() for v in frame[c].tolist()] for c in frame.columns})
     frame["line"] = np.arange(2, len(frame) + 2)
