@@ -55,10 +55,10 @@ def main() -> None:
 
 
 def _register() -> None:
-    from . import generate_command, store_commands
+    from . import generate_command, score_commands, store_commands
 
     main.add_command(generate_command.generate)
-    for cmd in store_commands.COMMANDS:
+    for cmd in store_commands.COMMANDS + score_commands.COMMANDS:
         main.add_command(cmd)
 
 
