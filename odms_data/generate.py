@@ -88,17 +88,24 @@ def run_shard(task: ShardTask) -> ShardResult:
         digests.append(example_digest(ids[e], SOURCE, spec.z[0], fd))
     result = ShardResult(task.start, task.stop, z, stats, digests)
     if task.fmt == "zarr":
-        import zarr
-
-        masks = zarr.open_array(
-            store=task.path, path="masks", mode="r+", storage_options=storage_options(task.path)
-        )
-        masks.with_config({"write_empty_chunks": True})[task.start * n : task.stop * n] = packed
+        _write_shard(task.path, task.start * n, packed)
     else:
         result.deflated_chunks = [
             zlib.compress(packed[e * n : (e + 1) * n].tobytes(), GZIP_LEVEL) for e in range(k)
         ]
     return result
+
+
+def _write_shard(path: str, start: int, packed: np.ndarray) -> None:
+    """Write the whole shard of `masks` at frame `start` afresh: delete what an interrupted earlier
+    attempt may have left first, since zarr reads an existing shard back to merge into it."""
+    import zarr
+    from zarr.core.sync import sync
+
+    masks = zarr.open_array(store=path, path="masks", mode="r+", storage_options=storage_options(path))
+    key = masks.metadata.encode_chunk_key((start // masks.shards[0], 0, 0))
+    sync(masks.store.delete(f"{masks.path}/{key}"))
+    masks.with_config({"write_empty_chunks": True})[start : start + len(packed)] = packed
 
 
 Progress = Callable[[int], None]

@@ -14,7 +14,7 @@ from click.testing import CliRunner  # noqa: E402
 
 from odms_data.cli import main  # noqa: E402
 from odms_data.errors import InputError  # noqa: E402
-from odms_data.generate import generate  # noqa: E402
+from odms_data.generate import ShardTask, generate, run_shard  # noqa: E402
 from odms_data.generator import preset  # noqa: E402
 from odms_data.store import open_store  # noqa: E402
 from odms_data.validate import validate  # noqa: E402
@@ -103,6 +103,18 @@ def test_killed_worker_leaves_a_complete_correct_store(local_digest, tmp_path):
                  scheduler=c.scheduler_address, progress=kill_one_mid_run)
         assert killed
         _check(path, local_digest)
+
+
+def test_a_rerun_task_rewrites_a_half_written_shard(local_digest, tmp_path):
+    """What a worker killed mid-write leaves (a truncated shard over file://) is replaced whole."""
+    url = f"file://{tmp_path}/half.zarr"
+    generate(url, COUNT, PARAMS, SEED, examples_per_shard=PER_SHARD)
+    shard = tmp_path / "half.zarr" / "masks" / "c" / "1" / "0" / "0"
+    whole = shard.read_bytes()
+    shard.write_bytes(whole[: len(whole) // 2])
+    run_shard(ShardTask(url, "zarr", PARAMS, SEED, "generated", COUNT, PER_SHARD, 2 * PER_SHARD))
+    assert shard.read_bytes() == whole
+    _check(url, local_digest)
 
 
 def test_no_dask_without_a_scheduler(tmp_path):
