@@ -20,7 +20,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from distributed import LocalCluster
+# run as a script, this file's own folder comes first on sys.path, where its name hides the package
+sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
+from distributed import LocalCluster  # noqa: E402
 
 
 def run(args: list[str]) -> tuple[float, str]:
