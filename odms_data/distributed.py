@@ -5,8 +5,9 @@ its digest do not depend on the cluster. Each task writes its whole Zarr shard o
 store write; a task that raises is retried by Dask (`RETRIES`), one whose worker dies is rerun
 elsewhere (the scheduler's `allowed-failures`), and a rerun rewrites the whole shard. Results come
 back as tasks complete (that is what progress counts) and are handed to the parent in task order,
-at most two tasks per worker thread ahead of the oldest unfinished one; the parent writes the
-small arrays, feeds the digest and marks the store complete after the last shard.
+with at most two tasks per worker thread (recounted as the cluster scales) ahead of the oldest
+unfinished one; the parent writes the small arrays, feeds the digest and marks the store complete
+after the last shard.
 
 Only this module imports Dask, and only `generate` with a scheduler imports this module.
 """
@@ -80,24 +81,22 @@ def run_tasks(
     from distributed import as_completed
 
     with connect(address) as client:
-        if tasks:
-            check_workers(client, address, tasks[0].path)
-        ahead = max(4, 2 * sum(client.nthreads().values()))
-        todo = iter(enumerate(tasks))
-        index: dict[str, int] = {}  # future key -> task index
+        check_workers(client, address, tasks[0].path)
         pending = as_completed(loop=client.loop)
-
-        def submit() -> None:
-            nxt = next(todo, None)
-            if nxt is not None:
-                future = client.submit(run_shard, nxt[1], retries=RETRIES, pure=False)
-                index[future.key] = nxt[0]
-                pending.add(future)
-
-        for _ in range(ahead):
-            submit()
+        index: dict[str, int] = {}  # future key -> task index
         finished: dict[int, ShardResult] = {}
-        head = 0
+        submitted = head = 0
+
+        def top_up() -> None:
+            nonlocal submitted
+            ahead = max(4, 2 * sum(client.nthreads().values()))  # follows a cluster that scales
+            while submitted < len(tasks) and submitted - head < ahead:
+                future = client.submit(run_shard, tasks[submitted], retries=RETRIES, pure=False)
+                index[future.key] = submitted
+                pending.add(future)
+                submitted += 1
+
+        top_up()
         for future in pending:
             i = index.pop(future.key)
             try:
@@ -111,7 +110,8 @@ def run_tasks(
             if progress:
                 progress(result.stop - result.start)
             finished[i] = result
-            while head in finished:
-                yield finished.pop(head)
-                head += 1
-                submit()
+            if head in finished:
+                while head in finished:
+                    yield finished.pop(head)
+                    head += 1
+                top_up()
