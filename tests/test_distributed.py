@@ -62,6 +62,13 @@ def test_same_digest_as_a_local_run(cluster, local_digest, tmp_path):
     _check(path, local_digest)
 
 
+def test_hdf5(cluster, local_digest, tmp_path):
+    """HDF5 tasks return their compressed chunks; the client writes them, as locally."""
+    path = str(tmp_path / "dask.h5")
+    generate(path, COUNT, PARAMS, SEED, examples_per_shard=PER_SHARD, scheduler=cluster.scheduler_address)
+    _check(path, local_digest)
+
+
 def test_file_url(cluster, local_digest, tmp_path):
     url = f"file://{tmp_path}/url/dask.zarr"
     generate(url, COUNT, PARAMS, SEED, examples_per_shard=PER_SHARD, scheduler=cluster.scheduler_address)
