@@ -1,0 +1,112 @@
+"""Where examples come from: a store or the generator, as dicts of NumPy network inputs.
+
+Both are plain picklable objects, so they travel to worker processes (PyTorch DataLoader
+workers, the NumPy loader's pool). A store is opened lazily in each process: Zarr and HDF5
+handles are not safe to share across fork, so a handle opened in another process is dropped
+and the store reopened on first use.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..errors import InputError
+from ..generator import PRESETS, GeneratorParams, sample_example
+from ..store import Store, open_store
+from .render import render_masks
+from .transforms import PAPER_TRANSFORM, Transform
+
+STANDARD = PRESETS["standard"]
+
+
+def collate(examples: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """Stack examples' arrays along a new first axis."""
+    out = {}
+    for key in examples[0]:
+        try:
+            out[key] = np.stack([e[key] for e in examples])
+        except ValueError:
+            shapes = sorted({np.shape(e[key]) for e in examples})
+            raise InputError(
+                f"cannot batch '{key}': examples give shapes {shapes}; set the transform's n_obs "
+                "so every example has as many observations"
+            ) from None
+    return out
+
+
+class StoreExamples:
+    """The examples of the store at `path`, transformed; `example(i)` by row."""
+
+    def __init__(self, path: str, transform: Transform = PAPER_TRANSFORM) -> None:
+        self.path, self.transform = str(path), transform
+        self._store: Store | None = None
+        self._pid: int | None = None
+        self._len = len(self.store)
+
+    @property
+    def store(self) -> Store:
+        if self._store is None or self._pid != os.getpid():
+            self._store, self._pid = open_store(self.path), os.getpid()
+        return self._store
+
+    def __getstate__(self) -> dict:
+        return {**self.__dict__, "_store": None, "_pid": None}
+
+    def __len__(self) -> int:
+        return self._len
+
+    def example(self, i: int) -> dict[str, np.ndarray]:
+        s = self.store
+        if not 0 <= i < self._len:
+            raise InputError(f"{self.path}: example row {i} is out of range 0..{self._len - 1}")
+        frames = s.frames_of(i)
+        try:
+            chosen = frames[self.transform.select(len(frames))]
+        except InputError as e:
+            raise InputError(f"{self.path}: example {s.example_ids[i]}: {e}") from None
+        out = self.transform(s.read_masks(chosen), s.z[chosen], float(s.d1[i]))
+        out["index"] = np.int64(i)
+        return out
+
+    def batch(self, indices: Sequence[int]) -> dict[str, np.ndarray]:
+        return collate([self.example(int(i)) for i in indices])
+
+
+class GeneratedExamples:
+    """Freshly generated examples of (params, seed), rendered straight at the transform's size;
+    `example(index)` depends only on (params, seed, index, transform)."""
+
+    def __init__(
+        self, params: GeneratorParams = STANDARD, seed: int = 0, transform: Transform = PAPER_TRANSFORM
+    ) -> None:
+        if seed < 0:
+            raise InputError(f"seed must be a non-negative integer, got {seed}")
+        self.params, self.seed, self.transform = params, seed, transform
+        self._chosen = transform.select(params.n_obs)
+
+    def example(self, index: int) -> dict[str, np.ndarray]:
+        spec = sample_example(self.params, self.seed, index)
+        masks = render_masks(spec, self.params, self.transform.size, self._chosen)
+        out = self.transform(masks, spec.z[self._chosen], float(spec.z[0]))
+        out["index"] = np.int64(index)
+        return out
+
+    def batch(self, indices: Sequence[int]) -> dict[str, np.ndarray]:
+        return collate([self.example(int(i)) for i in indices])
+
+
+def stream_indices(batch: int, batch_size: int, batches_per_epoch: int, epoch: int) -> range:
+    """Generator indices of batch `batch` of `epoch`: epochs and batches take consecutive,
+    disjoint blocks of the index space, so no example repeats across batches, workers or epochs."""
+    start = (epoch * batches_per_epoch + batch) * batch_size
+    return range(start, start + batch_size)
+
+
+def store_order(n: int, shuffle: bool, seed: int, epoch: int) -> np.ndarray:
+    """Rows of a store in the order of `epoch`: a permutation drawn from (seed, epoch) or 0..n-1."""
+    if not shuffle:
+        return np.arange(n)
+    return np.random.default_rng([seed, epoch]).permutation(n)
