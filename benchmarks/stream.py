@@ -1,0 +1,99 @@
+"""Examples/s of the loaders: the streaming generator at 112x112 and 480x640 (n = 10) in-process
+and with 1 and 2 worker processes, and a store read through each loader.
+
+    python benchmarks/stream.py [--store sim-val.zarr] [--examples 4096] [--batch-size 256]
+
+The baseline, measured in the same run, is the naive streaming path: draw each mask at 480x640 with
+generator.render_masks and shrink it to 112x112. Timing starts when the first batch arrives, so
+worker start-up is left out; the first batch is not counted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import tempfile
+import time
+from collections.abc import Iterable
+from pathlib import Path
+
+from odms_data.generate import generate
+from odms_data.generator import GeneratorParams, render_masks, sample_example
+from odms_data.loaders import Transform, store_batches, stream_batches
+from odms_data.loaders.sources import collate
+
+PARAMS = GeneratorParams(n_obs=10)
+
+
+def rate(batches: Iterable, batch_size: int) -> float:
+    it = iter(batches)
+    next(it)
+    t0, count = time.perf_counter(), 0
+    for _ in it:
+        count += batch_size
+    return count / (time.perf_counter() - t0)
+
+
+def naive(batch_size: int, n_batches: int):
+    """Full-size masks shrunk to 112x112: the path streaming at training size avoids."""
+    t = Transform()
+    for b in range(n_batches):
+        out = []
+        for i in range(b * batch_size, (b + 1) * batch_size):
+            spec = sample_example(PARAMS, 0, i)
+            out.append(t(render_masks(spec, PARAMS), spec.z, spec.z[0]))
+        yield collate(out)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--store", help="store to read (default: 2,048 generated examples in a temp dir)")
+    ap.add_argument("--examples", type=int, default=4096, help="examples per streaming measurement")
+    ap.add_argument("--batch-size", type=int, default=256)
+    args = ap.parse_args()
+    B = args.batch_size
+    nb = max(2, args.examples // B)
+    results: list[tuple[str, float]] = []
+
+    def record(name: str, value: float) -> None:
+        results.append((name, value))
+        print(f"{name:<48} {value:9.0f} examples/s  x{value / results[0][1]:.1f}", flush=True)
+
+    record("baseline: 480x640 drawn, shrunk to 112x112", rate(naive(B, max(2, nb // 4)), B))
+    for size, label in (((112, 112), "112x112"), (None, "480x640")):
+        t = Transform(size=size)
+        for workers in (0, 1, 2):
+            record(f"numpy stream {label}, workers={workers}",
+                   rate(stream_batches(B, nb, params=PARAMS, transform=t, workers=workers), B))
+    has_torch = importlib.util.find_spec("torch") is not None
+    has_tf = importlib.util.find_spec("tensorflow") is not None
+    if has_torch:
+        from torch.utils.data import DataLoader
+
+        from odms_data.loaders.torch import StoreDataset, StreamDataset
+
+        for workers in (1, 2):
+            ds = StreamDataset(B, nb, params=PARAMS)
+            record(f"torch stream 112x112, workers={workers}",
+                   rate(DataLoader(ds, batch_size=None, num_workers=workers), B))
+
+    with tempfile.TemporaryDirectory() as tmp:
+        store = args.store
+        if store is None:
+            store = str(Path(tmp) / "bench.zarr")
+            generate(store, 2048, PARAMS, seed=1, workers=2)
+        for workers in (0, 2):
+            record(f"numpy store -> 112x112, workers={workers}",
+                   rate(store_batches(store, B, workers=workers), B))
+        if has_torch:
+            for workers in (0, 2):
+                record(f"torch store -> 112x112, workers={workers}",
+                       rate(DataLoader(StoreDataset(store), batch_size=B, num_workers=workers), B))
+        if has_tf:
+            from odms_data.loaders.tf import from_store
+
+            record("tf store -> 112x112, workers=2", rate(from_store(store, B, workers=2), B))
+
+
+if __name__ == "__main__":
+    main()
