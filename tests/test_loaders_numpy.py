@@ -9,6 +9,7 @@ from loader_stores import COUNT, PARAMS, make_store
 from odms_data.errors import InputError
 from odms_data.generator import GeneratorParams, render_masks, sample_example
 from odms_data.loaders import GeneratedExamples, StoreExamples, Transform, store_batches, stream_batches
+from odms_data.loaders.transforms import resize_masks
 from odms_data.store import open_store
 
 
@@ -68,9 +69,19 @@ def test_streamed_example_is_the_generators():
     ex = GeneratedExamples(params, 4, Transform(n_obs=5)).example(7)
     spec = sample_example(params, 4, 7)
     chosen = [0, 2, 4, 6, 9]
-    np.testing.assert_array_equal(ex["masks"], render_masks(spec, params, (112, 112))[chosen])
+    np.testing.assert_array_equal(ex["masks"], resize_masks(render_masks(spec, params)[chosen], (112, 112)))
     assert ex["d1"] == np.float32(spec.z[0]) and ex["index"] == 7
     np.testing.assert_allclose(ex["dz"], spec.z[chosen] - spec.z[0], atol=1e-6)
+    direct = GeneratedExamples(params, 4, Transform(n_obs=5), direct=True).example(7)
+    np.testing.assert_array_equal(direct["masks"], render_masks(spec, params, (112, 112))[chosen])
+
+
+def test_stream_equals_store_read_through_loader(store_path):
+    t = Transform(size=(56, 56), n_obs=5, radial=True)
+    stored = next(iter(store_batches(store_path, COUNT, transform=t)))
+    streamed = next(iter(stream_batches(COUNT, 1, params=PARAMS, seed=5, transform=t)))
+    assert stored.keys() == streamed.keys()
+    assert all(np.array_equal(stored[k], streamed[k]) for k in stored)
 
 
 def test_bad_arguments():
@@ -80,3 +91,15 @@ def test_bad_arguments():
         GeneratedExamples(GeneratorParams(n_obs=10), 0, Transform(n_obs=12))
     with pytest.raises(InputError, match="seed"):
         GeneratedExamples(seed=-1)
+
+
+def test_store_handle_is_per_process(store_path):
+    import pickle
+
+    examples = StoreExamples(store_path)
+    first = examples.store
+    examples._pid = -1  # as after a fork: the handle belongs to another process
+    assert examples.store is not first
+    copy = pickle.loads(pickle.dumps(examples))  # as sent to a spawned worker
+    assert copy._store is None
+    np.testing.assert_array_equal(copy.example(2)["masks"], examples.example(2)["masks"])

@@ -9,7 +9,7 @@ import pytest
 from odms_data.errors import InputError
 from odms_data.generator import GeneratorParams, preset, sample_example
 from odms_data.generator import render_masks as generator_render
-from odms_data.loaders.render import render_masks
+from odms_data.loaders.render import render_masks, render_shrunk
 from odms_data.loaders.transforms import (
     Transform,
     distances,
@@ -76,3 +76,14 @@ def test_fast_render_matches_generator(params):
     frames = np.array([0, 4, 9])
     assert np.array_equal(render_masks(spec, params, (112, 112), frames),
                           generator_render(spec, params, (112, 112))[frames])
+
+
+@pytest.mark.parametrize("params", [GeneratorParams(), preset("perturb", perturb_std=3.0)])
+def test_shrunk_render_matches_full_size_shrunk(params):
+    frames = np.array([0, 3, 9])
+    for index in range(40):
+        spec = sample_example(params, 12, index)
+        full = generator_render(spec, params)
+        for size, coverage in (((112, 112), False), ((112, 112), True), ((37, 53), False)):
+            want = resize_masks(full[frames], size, coverage)
+            assert np.array_equal(render_shrunk(spec, params, size, frames, coverage), want)

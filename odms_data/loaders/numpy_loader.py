@@ -87,12 +87,13 @@ def stream_batches(
     seed: int = 0,
     epoch: int = 0,
     transform: Transform = PAPER_TRANSFORM,
+    direct: bool = False,
     workers: int = 0,
 ) -> Batches:
     """`batches` batches of freshly generated examples; epoch e uses generator indices
-    [e * batches * batch_size, (e + 1) * batches * batch_size)."""
+    [e * batches * batch_size, (e + 1) * batches * batch_size). `direct`: see GeneratedExamples."""
     _check_batch_size(batch_size)
     if batches < 1 or epoch < 0:
         raise InputError(f"need batches >= 1 and epoch >= 0, got batches={batches}, epoch={epoch}")
-    source = GeneratedExamples(params, seed, transform)
+    source = GeneratedExamples(params, seed, transform, direct)
     return Batches(source, [stream_indices(b, batch_size, batches, epoch) for b in range(batches)], workers)

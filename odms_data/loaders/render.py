@@ -1,20 +1,54 @@
-"""A fast path for `generator.render_masks`: the same pixels, with the per-frame NumPy work done
-once for all frames of an example.
+"""Fast paths for drawing generated masks at training size, both pixel-exact against the slow way.
 
-Frames whose drawn box would leave the image, or that are perturbed by at least one dilation or
-erosion step, go through `generator.render_frame` itself; every other frame is filled straight
-into its output with the same fixed-point vertices. tests/test_loaders_render.py checks equality
-with `generator.render_masks` at native and training sizes.
+- `render_masks`: what `generator.render_masks(spec, params, size)` draws (the contour drawn
+  straight at the small size), with the per-frame NumPy work done once for all frames.
+- `render_shrunk`: what `resize_masks(generator.render_masks(spec, params), size)` gives (the
+  full-size mask shrunk with INTER_AREA, as a store read through the loaders), drawing only the
+  object's box at full size: cv2's INTER_AREA weights depend only on the scale, so a crop whose
+  edges fall on a whole period of the input/output pixel grids (40 input columns per 7 output
+  ones for 640 -> 112) shrinks to exactly the same pixels as the full frame.
+
+Both fall back to `generator.render_frame` (or a full frame) wherever the shortcut would not hold.
+tests/test_loaders_transforms.py checks equality with the slow way.
 """
 
 from __future__ import annotations
 
+import math
+
 import cv2
 import numpy as np
 
-from ..generator import _SHIFT, ExampleSpec, GeneratorParams, render_frame
+from ..generator import _CROSS, _SHIFT, ExampleSpec, GeneratorParams, render_frame
+from .transforms import resize_masks
 
 cv2.setNumThreads(1)
+
+
+def _geometry(spec: ExampleSpec, params: GeneratorParams, frames: np.ndarray, size: tuple[int, int]):
+    """render_frame's per-frame arithmetic, for several frames at once and in the same order of
+    operations (so the same floats): fixed-point vertices relative to each frame's canvas, the
+    canvas corners lo (x0, y0) and hi (x1, y1), and the perturbation steps k."""
+    H0, W0 = params.image_size
+    H, W = size
+    sx_sy = np.array([W / W0, H / H0])
+    scale = params.d_min / spec.z[frames]
+    half = (scale * spec.size / 2)[:, None, None]
+    centre = np.array([W0 / 2, H0 / 2])
+    c = spec.contour
+    poly = ((c[None] * scale[:, None, None] + centre) - half) * sx_sy
+    # The mapping is monotone in each coordinate, so the extremes of the mapped contour are the
+    # mapped extremes.
+    ends = ((np.stack([c.min(axis=0), c.max(axis=0)])[None] * scale[:, None, None] + centre) - half) * sx_sy
+    k = np.round(np.abs(spec.perturb[frames]) * sx_sy.min()).astype(np.int64)
+    lo = np.floor(ends[:, 0]).astype(np.int64) - (k + 1)[:, None]
+    hi = np.ceil(ends[:, 1]).astype(np.int64) + (k + 2)[:, None]
+    fixed = np.round((poly - lo[:, None, :]) * (1 << _SHIFT)).astype(np.int32)
+    return fixed, lo, hi, k
+
+
+def _frames(spec: ExampleSpec, frames: np.ndarray | None) -> np.ndarray:
+    return np.arange(len(spec.z)) if frames is None else np.asarray(frames)
 
 
 def render_masks(
@@ -23,29 +57,58 @@ def render_masks(
     size: tuple[int, int] | None = None,
     frames: np.ndarray | None = None,
 ) -> np.ndarray:
-    """(k, H, W) uint8 0/1 masks of the given frames (default: all) at params.image_size or `size`."""
-    H0, W0 = params.image_size
+    """(k, H, W) uint8 0/1: `generator.render_masks(spec, params, size)[frames]` (default: all)."""
     H, W = size or params.image_size
-    frames = np.arange(len(spec.z)) if frames is None else np.asarray(frames)
+    frames = _frames(spec, frames)
     out = np.zeros((len(frames), H, W), np.uint8)
-    sy, sx = H / H0, W / W0
-    scale = params.d_min / spec.z[frames]
-    half = scale * spec.size / 2
-    shift = np.stack([W0 / 2 - half, H0 / 2 - half], axis=1)[:, None, :]
-    axis_scale = np.array([sx, sy])
-    # Rounding is monotone, so the extremes of the mapped contour are the mapped extremes.
-    c = spec.contour
-    poly = (c[None] * scale[:, None, None] + shift) * axis_scale
-    ends = (np.stack([c.min(axis=0), c.max(axis=0)])[None] * scale[:, None, None] + shift) * axis_scale
-    k = np.round(np.abs(spec.perturb[frames]) * min(sx, sy)).astype(np.int64)
-    lo = np.floor(ends[:, 0]).astype(np.int64) - (k + 1)[:, None]
-    hi = np.ceil(ends[:, 1]).astype(np.int64) + (k + 2)[:, None]
+    fixed, lo, hi, k = _geometry(spec, params, frames, (H, W))
     inside = (k == 0) & (lo >= 0).all(axis=1) & (hi[:, 0] <= W) & (hi[:, 1] <= H)
-    fixed = np.round((poly - lo[:, None, :]) * (1 << _SHIFT)).astype(np.int32)
     offset = lo << _SHIFT
     for j, f in enumerate(frames):
         if inside[j]:
             cv2.fillPoly(out[j], [fixed[j]], 1, cv2.LINE_8, _SHIFT, (int(offset[j, 0]), int(offset[j, 1])))
         else:
             render_frame(spec, params, int(f), out[j])
+    return out
+
+
+def _aligned(a: int, b: int, period: int) -> tuple[int, int]:
+    """[a, b) widened to multiples of period."""
+    return a // period * period, -(-b // period) * period
+
+
+def render_shrunk(
+    spec: ExampleSpec,
+    params: GeneratorParams,
+    size: tuple[int, int],
+    frames: np.ndarray | None = None,
+    coverage: bool = False,
+) -> np.ndarray:
+    """(k, h, w): `resize_masks(generator.render_masks(spec, params)[frames], size, coverage)`."""
+    H0, W0 = params.image_size
+    h, w = size
+    frames = _frames(spec, frames)
+    if h > H0 or w > W0:
+        return resize_masks(render_masks(spec, params, None, frames), size, coverage)
+    dtype = np.float32 if coverage else np.uint8
+    out = np.zeros((len(frames), h, w), dtype)
+    gy, gx = math.gcd(H0, h), math.gcd(W0, w)
+    (py, qy), (px, qx) = (H0 // gy, h // gy), (W0 // gx, w // gx)  # p input pixels per q output
+    fixed, lo, hi, k = _geometry(spec, params, frames, (H0, W0))
+    for j in range(len(frames)):
+        (x0, y0), (x1, y1) = lo[j], hi[j]
+        canvas = np.zeros((y1 - y0, x1 - x0), np.uint8)
+        cv2.fillPoly(canvas, [fixed[j]], 1, cv2.LINE_8, _SHIFT)
+        if k[j]:
+            op = cv2.dilate if spec.perturb[frames[j]] >= 0 else cv2.erode
+            canvas = op(canvas, _CROSS, iterations=int(k[j]))
+        cx0, cy0, cx1, cy1 = max(x0, 0), max(y0, 0), min(x1, W0), min(y1, H0)
+        if cx0 >= cx1 or cy0 >= cy1:
+            continue
+        X0, X1 = _aligned(cx0, cx1, px)
+        Y0, Y1 = _aligned(cy0, cy1, py)
+        crop = np.zeros((Y1 - Y0, X1 - X0), dtype)
+        crop[cy0 - Y0 : cy1 - Y0, cx0 - X0 : cx1 - X0] = canvas[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0]
+        ox0, ox1, oy0, oy1 = X0 // px * qx, X1 // px * qx, Y0 // py * qy, Y1 // py * qy
+        out[j, oy0:oy1, ox0:ox1] = cv2.resize(crop, (ox1 - ox0, oy1 - oy0), interpolation=cv2.INTER_AREA)
     return out

@@ -16,7 +16,7 @@ import numpy as np
 from ..errors import InputError
 from ..generator import PRESETS, GeneratorParams, sample_example
 from ..store import Store, open_store
-from .render import render_masks
+from .render import render_masks, render_shrunk
 from .transforms import PAPER_TRANSFORM, Transform
 
 STANDARD = PRESETS["standard"]
@@ -76,20 +76,34 @@ class StoreExamples:
 
 
 class GeneratedExamples:
-    """Freshly generated examples of (params, seed), rendered straight at the transform's size;
-    `example(index)` depends only on (params, seed, index, transform)."""
+    """Freshly generated examples of (params, seed); `example(index)` depends only on
+    (params, seed, index, transform, direct).
+
+    By default the masks are exactly those of a generated store read through the same transform
+    (full-size masks shrunk with INTER_AREA), drawn without a full-size frame (render.render_shrunk).
+    `direct=True` draws the contour straight at the transform's size instead (the generator's own
+    small-size rendering): faster, but its masks are larger; see schemas/LOADERS.md.
+    """
 
     def __init__(
-        self, params: GeneratorParams = STANDARD, seed: int = 0, transform: Transform = PAPER_TRANSFORM
+        self,
+        params: GeneratorParams = STANDARD,
+        seed: int = 0,
+        transform: Transform = PAPER_TRANSFORM,
+        direct: bool = False,
     ) -> None:
         if seed < 0:
             raise InputError(f"seed must be a non-negative integer, got {seed}")
-        self.params, self.seed, self.transform = params, seed, transform
+        self.params, self.seed, self.transform, self.direct = params, seed, transform, direct
         self._chosen = transform.select(params.n_obs)
 
     def example(self, index: int) -> dict[str, np.ndarray]:
         spec = sample_example(self.params, self.seed, index)
-        masks = render_masks(spec, self.params, self.transform.size, self._chosen)
+        size = self.transform.size
+        if size is None or self.direct:
+            masks = render_masks(spec, self.params, size, self._chosen)
+        else:
+            masks = render_shrunk(spec, self.params, size, self._chosen, self.transform.coverage)
         out = self.transform(masks, spec.z[self._chosen], float(spec.z[0]))
         out["index"] = np.int64(index)
         return out

@@ -58,9 +58,11 @@ def from_generator(
     seed: int = 0,
     epoch: int = 0,
     transform: Transform = PAPER_TRANSFORM,
+    direct: bool = False,
     workers: int = 0,
 ) -> tf.data.Dataset:
     """Freshly generated batches (see numpy_loader.stream_batches)."""
     return dataset(stream_batches(
-        batch_size, batches, params=params, seed=seed, epoch=epoch, transform=transform, workers=workers
+        batch_size, batches, params=params, seed=seed, epoch=epoch, transform=transform,
+        direct=direct, workers=workers,
     ))

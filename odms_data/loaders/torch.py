@@ -55,7 +55,8 @@ class StoreDataset(Dataset):
 
 class StreamDataset(IterableDataset):
     """`batches_per_epoch` batches of `batch_size` freshly generated examples per epoch; use with
-    DataLoader(dataset, batch_size=None, num_workers=...) and call set_epoch(e) before each epoch."""
+    DataLoader(dataset, batch_size=None, num_workers=...) and call set_epoch(e) before each epoch.
+    `direct`: see sources.GeneratedExamples."""
 
     def __init__(
         self,
@@ -65,12 +66,13 @@ class StreamDataset(IterableDataset):
         params: GeneratorParams = STANDARD,
         seed: int = 0,
         transform: Transform = PAPER_TRANSFORM,
+        direct: bool = False,
     ) -> None:
         if batch_size < 1 or batches_per_epoch < 1:
             raise InputError(
                 f"need batch_size >= 1 and batches_per_epoch >= 1, got {batch_size}, {batches_per_epoch}"
             )
-        self.examples = GeneratedExamples(params, seed, transform)
+        self.examples = GeneratedExamples(params, seed, transform, direct)
         self.batch_size, self.batches_per_epoch, self.epoch = batch_size, batches_per_epoch, 0
 
     def set_epoch(self, epoch: int) -> None:
