@@ -26,7 +26,7 @@ def main() -> None:
     args = ap.parse_args()
     for name in ("standard", "perturb"):
         params = preset(name)
-        iou, rel_area, rel_exact, rel_exact_shrunk, scale_diff = [], [], [], [], []
+        iou, rel_area, rel_exact, rel_exact_shrunk, scale_diff, empty = [], [], [], [], [], 0
         for index in range(args.examples):
             spec = sample_example(params, 123, index)
             full = render_masks(spec, params)
@@ -34,13 +34,18 @@ def main() -> None:
             shrunk = resize_masks(full, SIZE).astype(bool)
             exact = resize_masks(full, SIZE, coverage=True).sum(axis=(1, 2))
             a_d, a_s = direct.sum(axis=(1, 2)), shrunk.sum(axis=(1, 2))
-            iou += list((direct & shrunk).sum(axis=(1, 2)) / (direct | shrunk).sum(axis=(1, 2)))
-            rel_area += list(np.abs(a_d - a_s) / a_s)
-            rel_exact += list(np.abs(a_d - exact) / exact)
-            rel_exact_shrunk += list(np.abs(a_s - exact) / exact)
-            scale_diff.append(abs(np.sqrt(a_d[-1] / a_d[0]) - np.sqrt(a_s[-1] / a_s[0])))
+            ok = (a_d > 0) & (a_s > 0)
+            empty += int((~ok).sum())
+            union = (direct | shrunk).sum(axis=(1, 2))
+            iou += list(((direct & shrunk).sum(axis=(1, 2)) / np.maximum(union, 1))[ok])
+            rel_area += list((np.abs(a_d - a_s) / np.maximum(a_s, 1))[ok])
+            rel_exact += list((np.abs(a_d - exact) / exact)[ok])
+            rel_exact_shrunk += list((np.abs(a_s - exact) / exact)[ok])
+            if ok[0] and ok[-1]:
+                scale_diff.append(abs(np.sqrt(a_d[-1] / a_d[0]) - np.sqrt(a_s[-1] / a_s[0])))
         iou, rel_area = np.array(iou), np.array(rel_area)
-        print(f"{name}: {args.examples} examples, {len(iou)} frames at 112x112")
+        print(f"{name}: {args.examples} examples, {len(iou)} frames at 112x112 "
+              f"({empty} left out: empty in one of the two)")
         print(f"  IoU(direct, shrunk): mean {iou.mean():.4f}, 1st percentile {np.percentile(iou, 1):.4f}, "
               f"identical frames {np.mean(iou == 1):.1%}")
         print(f"  |area direct - area shrunk| / area shrunk: mean {rel_area.mean():.2%}, "
