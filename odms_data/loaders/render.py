@@ -36,15 +36,19 @@ def _geometry(spec: ExampleSpec, params: GeneratorParams, frames: np.ndarray, si
     half = (scale * spec.size / 2)[:, None, None]
     centre = np.array([W0 / 2, H0 / 2])
     c = spec.contour
-    poly = ((c[None] * scale[:, None, None] + centre) - half) * sx_sy
+    poly = np.multiply(c[None], scale[:, None, None])  # in place from here on: fewer allocations
+    poly += centre
+    poly -= half
+    poly *= sx_sy
     # The mapping is monotone in each coordinate, so the extremes of the mapped contour are the
     # mapped extremes.
     ends = ((np.stack([c.min(axis=0), c.max(axis=0)])[None] * scale[:, None, None] + centre) - half) * sx_sy
     k = np.round(np.abs(spec.perturb[frames]) * sx_sy.min()).astype(np.int64)
     lo = np.floor(ends[:, 0]).astype(np.int64) - (k + 1)[:, None]
     hi = np.ceil(ends[:, 1]).astype(np.int64) + (k + 2)[:, None]
-    fixed = np.round((poly - lo[:, None, :]) * (1 << _SHIFT)).astype(np.int32)
-    return fixed, lo, hi, k
+    poly -= lo[:, None, :]
+    poly *= 1 << _SHIFT
+    return np.rint(poly, out=poly).astype(np.int32), lo, hi, k
 
 
 def _frames(spec: ExampleSpec, frames: np.ndarray | None) -> np.ndarray:
@@ -97,18 +101,29 @@ def render_shrunk(
     fixed, lo, hi, k = _geometry(spec, params, frames, (H0, W0))
     for j in range(len(frames)):
         (x0, y0), (x1, y1) = lo[j], hi[j]
-        canvas = np.zeros((y1 - y0, x1 - x0), np.uint8)
-        cv2.fillPoly(canvas, [fixed[j]], 1, cv2.LINE_8, _SHIFT)
-        if k[j]:
-            op = cv2.dilate if spec.perturb[frames[j]] >= 0 else cv2.erode
-            canvas = op(canvas, _CROSS, iterations=int(k[j]))
         cx0, cy0, cx1, cy1 = max(x0, 0), max(y0, 0), min(x1, W0), min(y1, H0)
         if cx0 >= cx1 or cy0 >= cy1:
             continue
         X0, X1 = _aligned(cx0, cx1, px)
         Y0, Y1 = _aligned(cy0, cy1, py)
-        crop = np.zeros((Y1 - Y0, X1 - X0), dtype)
-        crop[cy0 - Y0 : cy1 - Y0, cx0 - X0 : cx1 - X0] = canvas[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0]
+        op = (cv2.dilate if spec.perturb[frames[j]] >= 0 else cv2.erode) if k[j] else None
+        if (cx0, cy0, cx1, cy1) == (x0, y0, x1, y1):
+            # render_frame's canvas lies inside the crop with an empty margin, so drawing and
+            # perturbing on the crop itself gives the same pixels
+            crop = np.zeros((Y1 - Y0, X1 - X0), np.uint8)
+            offset = (int(x0 - X0) << _SHIFT, int(y0 - Y0) << _SHIFT)
+            cv2.fillPoly(crop, [fixed[j]], 1, cv2.LINE_8, _SHIFT, offset)
+            if op:
+                crop = op(crop, _CROSS, iterations=int(k[j]))
+        else:
+            canvas = np.zeros((y1 - y0, x1 - x0), np.uint8)
+            cv2.fillPoly(canvas, [fixed[j]], 1, cv2.LINE_8, _SHIFT)
+            if op:
+                canvas = op(canvas, _CROSS, iterations=int(k[j]))
+            crop = np.zeros((Y1 - Y0, X1 - X0), np.uint8)
+            crop[cy0 - Y0 : cy1 - Y0, cx0 - X0 : cx1 - X0] = canvas[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0]
+        if coverage:
+            crop = crop.astype(np.float32)
         ox0, ox1, oy0, oy1 = X0 // px * qx, X1 // px * qx, Y0 // py * qy, Y1 // py * qy
         out[j, oy0:oy1, ox0:ox1] = cv2.resize(crop, (ox1 - ox0, oy1 - oy0), interpolation=cv2.INTER_AREA)
     return out
