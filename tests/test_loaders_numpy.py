@@ -103,3 +103,12 @@ def test_store_handle_is_per_process(store_path):
     copy = pickle.loads(pickle.dumps(examples))  # as sent to a spawned worker
     assert copy._store is None
     np.testing.assert_array_equal(copy.example(2)["masks"], examples.example(2)["masks"])
+
+
+def test_batch_reads_scattered_rows_one_by_one(store_path):
+    examples = StoreExamples(store_path, Transform(size=(30, 40), n_obs=2))
+    rows = [23, 0, 12, 5]  # 8 frames spread over 240: read per example, not in one slice
+    batch = examples.batch(rows)
+    for j, i in enumerate(rows):
+        assert np.array_equal(batch["masks"][j], examples.example(i)["masks"])
+    assert batch["index"].tolist() == rows

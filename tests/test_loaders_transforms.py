@@ -9,7 +9,7 @@ import pytest
 from odms_data.errors import InputError
 from odms_data.generator import GeneratorParams, preset, sample_example
 from odms_data.generator import render_masks as generator_render
-from odms_data.loaders.render import render_masks, render_shrunk
+from odms_data.loaders.render import render_masks, render_shrunk, shrink_boxes
 from odms_data.loaders.transforms import (
     Transform,
     distances,
@@ -18,6 +18,7 @@ from odms_data.loaders.transforms import (
     radial_image,
     resize_masks,
 )
+from odms_data.masks import stats_of
 
 
 def test_observation_indices_are_linspace_truncated():
@@ -87,3 +88,11 @@ def test_shrunk_render_matches_full_size_shrunk(params):
         for size, coverage in (((112, 112), False), ((112, 112), True), ((37, 53), False)):
             want = resize_masks(full[frames], size, coverage)
             assert np.array_equal(render_shrunk(spec, params, size, frames, coverage), want)
+
+
+def test_shrink_boxes_matches_resize():
+    params = preset("perturb")
+    masks = np.concatenate([generator_render(sample_example(params, 13, i), params) for i in range(20)])
+    boxes = stats_of(masks).bbox
+    for size, coverage in (((112, 112), False), ((112, 112), True), ((37, 53), False)):
+        assert np.array_equal(shrink_boxes(masks, boxes, size, coverage), resize_masks(masks, size, coverage))

@@ -1,4 +1,4 @@
-"""Fast paths for drawing generated masks at training size, both pixel-exact against the slow way.
+"""Fast paths for masks at training size, each pixel-exact against the slow way.
 
 - `render_masks`: what `generator.render_masks(spec, params, size)` draws (the contour drawn
   straight at the small size), with the per-frame NumPy work done once for all frames.
@@ -7,6 +7,7 @@
   object's box at full size: cv2's INTER_AREA weights depend only on the scale, so a crop whose
   edges fall on a whole period of the input/output pixel grids (40 input columns per 7 output
   ones for 640 -> 112) shrinks to exactly the same pixels as the full frame.
+- `shrink_boxes`: the same shortcut for stored masks, whose boxes the store records.
 
 Both fall back to `generator.render_frame` (or a full frame) wherever the shortcut would not hold.
 tests/test_loaders_transforms.py checks equality with the slow way.
@@ -81,6 +82,41 @@ def _aligned(a: int, b: int, period: int) -> tuple[int, int]:
     return a // period * period, -(-b // period) * period
 
 
+def _periods(full: tuple[int, int], size: tuple[int, int]) -> tuple[int, int, int, int]:
+    """Input and output pixels per period of INTER_AREA's grid: rows py -> qy, columns px -> qx."""
+    (H0, W0), (h, w) = full, size
+    gy, gx = math.gcd(H0, h), math.gcd(W0, w)
+    return H0 // gy, h // gy, W0 // gx, w // gx
+
+
+def _shrink_into(out: np.ndarray, crop: np.ndarray, X0: int, Y0: int, periods: tuple) -> None:
+    """Write the INTER_AREA shrink of `crop`, the aligned region at (X0, Y0) of a full frame, into
+    its place in `out`, the shrunk frame."""
+    py, qy, px, qx = periods
+    oy0, ox0 = Y0 // py * qy, X0 // px * qx
+    oh, ow = crop.shape[0] // py * qy, crop.shape[1] // px * qx
+    out[oy0 : oy0 + oh, ox0 : ox0 + ow] = cv2.resize(crop, (ow, oh), interpolation=cv2.INTER_AREA)
+
+
+def shrink_boxes(masks: np.ndarray, boxes: np.ndarray, size: tuple[int, int], coverage: bool = False):
+    """`resize_masks(masks, size, coverage)` for (k, H, W) masks whose objects lie inside `boxes`
+    (k, 4: x0, y0, x1, y1 half-open, as stored): only each box, widened to the grid, is shrunk."""
+    k, H0, W0 = masks.shape
+    if size[0] > H0 or size[1] > W0:
+        return resize_masks(masks, size, coverage)
+    out = np.zeros((k, *size), np.float32 if coverage else np.uint8)
+    periods = _periods((H0, W0), size)
+    py, _, px, _ = periods
+    for j, (x0, y0, x1, y1) in enumerate(np.asarray(boxes, np.int64)):
+        if x0 >= x1 or y0 >= y1:
+            continue
+        X0, X1 = _aligned(x0, x1, px)
+        Y0, Y1 = _aligned(y0, y1, py)
+        crop = masks[j, Y0:Y1, X0:X1].astype(out.dtype)
+        _shrink_into(out[j], crop, X0, Y0, periods)
+    return out
+
+
 def render_shrunk(
     spec: ExampleSpec,
     params: GeneratorParams,
@@ -94,10 +130,9 @@ def render_shrunk(
     frames = _frames(spec, frames)
     if h > H0 or w > W0:
         return resize_masks(render_masks(spec, params, None, frames), size, coverage)
-    dtype = np.float32 if coverage else np.uint8
-    out = np.zeros((len(frames), h, w), dtype)
-    gy, gx = math.gcd(H0, h), math.gcd(W0, w)
-    (py, qy), (px, qx) = (H0 // gy, h // gy), (W0 // gx, w // gx)  # p input pixels per q output
+    out = np.zeros((len(frames), h, w), np.float32 if coverage else np.uint8)
+    periods = _periods((H0, W0), size)
+    py, _, px, _ = periods
     fixed, lo, hi, k = _geometry(spec, params, frames, (H0, W0))
     for j in range(len(frames)):
         (x0, y0), (x1, y1) = lo[j], hi[j]
@@ -122,8 +157,5 @@ def render_shrunk(
                 canvas = op(canvas, _CROSS, iterations=int(k[j]))
             crop = np.zeros((Y1 - Y0, X1 - X0), np.uint8)
             crop[cy0 - Y0 : cy1 - Y0, cx0 - X0 : cx1 - X0] = canvas[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0]
-        if coverage:
-            crop = crop.astype(np.float32)
-        ox0, ox1, oy0, oy1 = X0 // px * qx, X1 // px * qx, Y0 // py * qy, Y1 // py * qy
-        out[j, oy0:oy1, ox0:ox1] = cv2.resize(crop, (ox1 - ox0, oy1 - oy0), interpolation=cv2.INTER_AREA)
+        _shrink_into(out[j], crop.astype(out.dtype, copy=False), X0, Y0, periods)
     return out

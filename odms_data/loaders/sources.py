@@ -15,8 +15,9 @@ import numpy as np
 
 from ..errors import InputError
 from ..generator import PRESETS, GeneratorParams, sample_example
+from ..masks import unpack
 from ..store import Store, open_store
-from .render import render_masks, render_shrunk
+from .render import render_masks, render_shrunk, shrink_boxes
 from .transforms import PAPER_TRANSFORM, Transform
 
 STANDARD = PRESETS["standard"]
@@ -58,21 +59,39 @@ class StoreExamples:
     def __len__(self) -> int:
         return self._len
 
-    def example(self, i: int) -> dict[str, np.ndarray]:
-        s = self.store
+    def _chosen(self, i: int) -> np.ndarray:
+        """Frame rows of the observations of example i the transform uses."""
         if not 0 <= i < self._len:
             raise InputError(f"{self.path}: example row {i} is out of range 0..{self._len - 1}")
-        frames = s.frames_of(i)
+        frames = self.store.frames_of(i)
         try:
-            chosen = frames[self.transform.select(len(frames))]
+            return frames[self.transform.select(len(frames))]
         except InputError as e:
-            raise InputError(f"{self.path}: example {s.example_ids[i]}: {e}") from None
-        out = self.transform(s.read_masks(chosen), s.z[chosen], float(s.d1[i]))
+            raise InputError(f"{self.path}: example {self.store.example_ids[i]}: {e}") from None
+
+    def _inputs(self, i: int, chosen: np.ndarray, masks: np.ndarray) -> dict[str, np.ndarray]:
+        s, t = self.store, self.transform
+        if t.size is not None:  # shrink only the stored boxes: same pixels, a fraction of the work
+            masks = shrink_boxes(masks, s.bbox[chosen], t.size, t.coverage)
+        out = t(masks, s.z[chosen], float(s.d1[i]))
         out["index"] = np.int64(i)
         return out
 
+    def example(self, i: int) -> dict[str, np.ndarray]:
+        chosen = self._chosen(i)
+        return self._inputs(i, chosen, self.store.read_masks(chosen))
+
     def batch(self, indices: Sequence[int]) -> dict[str, np.ndarray]:
-        return collate([self.example(int(i)) for i in indices])
+        """Examples by row; the packed masks of nearby rows are read in one slice."""
+        rows = [int(i) for i in indices]
+        chosen = [self._chosen(i) for i in rows]
+        flat = np.concatenate(chosen)
+        lo, hi = int(flat.min()), int(flat.max()) + 1
+        pairs = zip(rows, chosen, strict=True)
+        if hi - lo > 4 * len(flat):
+            return collate([self._inputs(i, c, self.store.read_masks(c)) for i, c in pairs])
+        packed, width = self.store.read_packed(lo, hi), self.store.width
+        return collate([self._inputs(i, c, unpack(packed[c - lo], width)) for i, c in pairs])
 
 
 class GeneratedExamples:
