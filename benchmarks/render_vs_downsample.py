@@ -32,7 +32,7 @@ def main() -> None:
             full = render_masks(spec, params)
             direct = render_masks(spec, params, SIZE).astype(bool)
             shrunk = resize_masks(full, SIZE).astype(bool)
-            exact = resize_masks(full, SIZE, coverage=True).sum(axis=(1, 2))
+            exact = np.maximum(resize_masks(full, SIZE, coverage=True).sum(axis=(1, 2)), 1e-9)
             a_d, a_s = direct.sum(axis=(1, 2)), shrunk.sum(axis=(1, 2))
             ok = (a_d > 0) & (a_s > 0)
             empty += int((~ok).sum())

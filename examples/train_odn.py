@@ -51,7 +51,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--store", help="store to predict (e.g. sim-val.zarr); omit to only train")
     ap.add_argument("--out", default="predictions.csv", help="predictions CSV (split,example_id,d1)")
     ap.add_argument("--steps", type=int, default=300)
-    ap.add_argument("--batch-size", type=int, default=128)
+    ap.add_argument("--batch-size", type=int, default=64)
     ap.add_argument("--workers", type=int, default=2, help="DataLoader worker processes")
     ap.add_argument("--seed", type=int, default=0, help="generator seed (the splits use 2020000x)")
     ap.add_argument("--n-obs", type=int, default=10)

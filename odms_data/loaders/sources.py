@@ -82,6 +82,9 @@ class StoreExamples:
         return self._inputs(i, chosen, self.store.read_masks(chosen))
 
     def batch(self, indices: Sequence[int]) -> dict[str, np.ndarray]:
+        return collate(self.examples(indices))
+
+    def examples(self, indices: Sequence[int]) -> list[dict[str, np.ndarray]]:
         """Examples by row; the packed masks of nearby rows are read in one slice."""
         rows = [int(i) for i in indices]
         chosen = [self._chosen(i) for i in rows]
@@ -89,9 +92,9 @@ class StoreExamples:
         lo, hi = int(flat.min()), int(flat.max()) + 1
         pairs = zip(rows, chosen, strict=True)
         if hi - lo > 4 * len(flat):
-            return collate([self._inputs(i, c, self.store.read_masks(c)) for i, c in pairs])
+            return [self._inputs(i, c, self.store.read_masks(c)) for i, c in pairs]
         packed, width = self.store.read_packed(lo, hi), self.store.width
-        return collate([self._inputs(i, c, unpack(packed[c - lo], width)) for i, c in pairs])
+        return [self._inputs(i, c, unpack(packed[c - lo], width)) for i, c in pairs]
 
 
 class GeneratedExamples:

@@ -52,6 +52,10 @@ class StoreDataset(Dataset):
     def __getitem__(self, i: int) -> dict[str, torch.Tensor]:
         return to_tensors(self.examples.example(int(i)))
 
+    def __getitems__(self, indices: list[int]) -> list[dict[str, torch.Tensor]]:
+        """A DataLoader batch at once: nearby rows are read from the store in one slice."""
+        return [to_tensors(e) for e in self.examples.examples(indices)]
+
 
 class StreamDataset(IterableDataset):
     """`batches_per_epoch` batches of `batch_size` freshly generated examples per epoch; use with
