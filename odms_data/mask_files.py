@@ -86,17 +86,24 @@ def read_mask(path: Path, threshold: int = DEFAULT_THRESHOLD) -> np.ndarray:
         _check_png(path, data)
     else:
         _check_jpeg(path, data)
-    img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_GRAYSCALE)
+    # PNGs keep their bit depth (a 16-bit 0/1 label image would read as empty in 8 bits)
+    flag = cv2.IMREAD_UNCHANGED if path.suffix.lower() == ".png" else cv2.IMREAD_GRAYSCALE
+    img = cv2.imdecode(np.frombuffer(data, np.uint8), flag)
     if img is None:
         raise InputError(f"{path}: cannot be decoded as an image")
+    if img.ndim == 3:
+        img = cv2.cvtColor(img, cv2.COLOR_BGRA2GRAY if img.shape[2] == 4 else cv2.COLOR_BGR2GRAY)
     return binarize(img, threshold)
 
 
 def binarize(img: np.ndarray, threshold: int = DEFAULT_THRESHOLD) -> np.ndarray:
-    """Binary rule for two-valued masks with 0, threshold for the rest (see the module doc)."""
+    """Binary rule for two-valued masks with 0, threshold for the rest (see the module doc).
+
+    `threshold` is on the 8-bit scale; for 16-bit images it is scaled by 257.
+    """
     lo, hi = cv2.minMaxLoc(img)[:2]
     if lo == 0:
         n = cv2.countNonZero(img)
         if n == 0 or n == cv2.countNonZero(cv2.compare(img, hi, cv2.CMP_EQ)):
             return (img != 0).view(np.uint8)
-    return (img >= threshold).view(np.uint8)
+    return (img >= threshold * (257 if img.dtype == np.uint16 else 1)).view(np.uint8)
