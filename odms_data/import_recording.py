@@ -66,10 +66,12 @@ def read_positions(
     files, z, depth, skipped = [], [], [], []
     seen_frame: dict[str, int] = {}
     seen_z: dict[float, int] = {}
+    named = set()  # frames named on any row, good or bad
     for i, row in enumerate(table.itertuples(index=False)):
         where = f"{positions} line {i + 2}"
         try:
             frame = row.frame.strip()
+            named.add((mask_dir / frame).resolve())
             if not frame:
                 raise InputError(f"{where}: frame is empty")
             if frame in seen_frame:
@@ -94,9 +96,8 @@ def read_positions(
         files.append(path)
         z.append(zi)
         depth.append(di)
-    listed = {p.resolve() for p in files} | {(mask_dir / f).resolve() for f in seen_frame}
     for p in sorted(mask_dir.iterdir()):
-        if is_mask_file(p) and p.resolve() not in listed:
+        if is_mask_file(p) and p.resolve() not in named:
             message = f"{p}: no row in {positions} (every mask needs its camera position)"
             if not skip_bad:
                 raise InputError(message)

@@ -45,7 +45,7 @@ def _report_skipped(oddities: list[dict[str, str]], what: str) -> None:
     if skipped:
         click.echo(f"skipped {len(skipped)} {what}:")
         for o in skipped:
-            click.echo(f"  {o['example']}: {o['detail']}")
+            click.echo(f"  {o['detail']}")
 
 
 def _windows(text: str | None) -> list[int] | None:
