@@ -80,7 +80,7 @@ def _read(path: Path) -> bytes:
 
 
 def read_mask(path: Path, threshold: int = DEFAULT_THRESHOLD) -> np.ndarray:
-    """(H, W) uint8 mask of the file at `path`, 1 = object, 0 = background."""
+    """(H, W) bool mask of the file at `path`, True = object."""
     data = _read(path)
     if path.suffix.lower() == ".png":
         _check_png(path, data)
@@ -101,9 +101,10 @@ def binarize(img: np.ndarray, threshold: int = DEFAULT_THRESHOLD) -> np.ndarray:
 
     `threshold` is on the 8-bit scale; for 16-bit images it is scaled by 257.
     """
+    threshold *= 257 if img.dtype == np.uint16 else 1
     lo, hi = cv2.minMaxLoc(img)[:2]
-    if lo == 0:
+    if lo == 0 and 0 < hi < threshold:  # (if hi >= threshold, both rules agree on {0, hi} masks)
         n = cv2.countNonZero(img)
-        if n == 0 or n == cv2.countNonZero(cv2.compare(img, hi, cv2.CMP_EQ)):
-            return (img != 0).view(np.uint8)
-    return (img >= threshold * (257 if img.dtype == np.uint16 else 1)).view(np.uint8)
+        if n == cv2.countNonZero(cv2.compare(img, hi, cv2.CMP_EQ)):
+            return img != 0
+    return img >= threshold
