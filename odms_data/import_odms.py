@@ -33,7 +33,7 @@ ROBOT_FRAMES = 30
 ROBOT_WINDOWS = (10, 15, 20, 25, 30)
 ROBOT_N_OBS = 10
 # (frames per mask chunk, frames per shard): robot one folder per chunk, normal/perturb one example.
-CHUNKING = {"robot": (30, 240), "driving": (32, 512), "normal": (10, 1000), "perturb": (10, 1000)}
+CHUNKING = {"robot": (30, 480), "driving": (32, 1024), "normal": (10, 2000), "perturb": (10, 2000)}
 RELEASE = "official ODMS release (Griffin & Corso, ECCV 2020; griffbr/ODMS data/)"
 
 
