@@ -102,9 +102,10 @@ def binarize(img: np.ndarray, threshold: int = DEFAULT_THRESHOLD) -> np.ndarray:
     `threshold` is on the 8-bit scale; for 16-bit images it is scaled by 257.
     """
     threshold *= 257 if img.dtype == np.uint16 else 1
+    mask = img >= threshold
+    if mask.any():  # then max >= threshold, where both rules agree on {0, max} masks
+        return mask
     lo, hi = cv2.minMaxLoc(img)[:2]
-    if lo == 0 and 0 < hi < threshold:  # (if hi >= threshold, both rules agree on {0, hi} masks)
-        n = cv2.countNonZero(img)
-        if n == cv2.countNonZero(cv2.compare(img, hi, cv2.CMP_EQ)):
-            return img != 0
-    return img >= threshold
+    if lo == 0 and hi > 0 and cv2.countNonZero(img) == cv2.countNonZero(cv2.compare(img, hi, cv2.CMP_EQ)):
+        return img != 0
+    return mask
