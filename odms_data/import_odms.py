@@ -124,8 +124,11 @@ def scan_split(
     if not root.is_dir():
         hint = " (DATA_DIR is the release's data/ folder, holding val/ and test/)"
         raise InputError(f"{root}: no such folder{hint}")
+    dirs = sorted((p for p in root.iterdir() if p.is_dir()), key=lambda p: _natural_key(p.name))
+    if not dirs:
+        raise InputError(f"{root}: holds no example folders")
     folders, skipped = [], []
-    for d in sorted((p for p in root.iterdir() if p.is_dir()), key=lambda p: _natural_key(p.name)):
+    for d in dirs:
         try:
             folders.append(_scan_folder(d, f"{fold}/{domain}/{d.name}", split, domain))
         except InputError as e:

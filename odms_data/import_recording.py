@@ -178,7 +178,9 @@ def import_recording(
         raise InputError("windows must be lengths of at least 2 frames, e.g. 10,15,20,25,30")
     if d1 is not None and not (math.isfinite(d1) and d1 > 0):
         raise InputError(f"d1 {d1} is not a positive distance")
-    out = Path(out) if out is not None else Path(f"{mask_dir.resolve().name}.zarr")
+    if out is None:
+        out = Path(mask_dir.resolve().name + (".h5" if fmt == "hdf5" else ".zarr"))
+    out = Path(out)
     name = _store_name(name, out, mask_dir.resolve())
     files, z, depth, skipped = read_positions(positions, mask_dir, skip_bad)
     if depth is not None and d1 is not None:
