@@ -165,7 +165,8 @@ def make_plan(split: str, folders: list[Folder], skipped: list[dict[str, str]]) 
     )
 
 
-def _folder_of(plan: Plan, folders: list[Folder], row: int) -> int:
+def _folder_of(folders: list[Folder], row: int) -> int:
+    """Index of the folder holding frame row `row`."""
     ends = np.cumsum([len(f.files) for f in folders])
     return int(np.searchsorted(ends, row, side="right"))
 
@@ -228,7 +229,7 @@ def import_release(
                         raise
                     bad = {}
                     for row, message in e.failures:
-                        bad.setdefault(_folder_of(plan, folders, row), message)
+                        bad.setdefault(_folder_of(folders, row), message)
                     skipped = skipped + [
                         {"example": f"{name}/{Path(folders[i].rel).name}", "kind": "skipped", "detail": m}
                         for i, m in bad.items()
