@@ -44,13 +44,16 @@ class ShardReader:
             outer = meta["chunk_grid"]["configuration"]["chunk_shape"]
             sep = meta["chunk_key_encoding"]["configuration"]["separator"]
             shape = tuple(meta["shape"])
+            chunk, shard = conf["chunk_shape"][0], outer[0]
             ok = (codec["name"] == "sharding_indexed" and inner == ["bytes", "zstd"]
                   and index == ["bytes", "crc32c"] and conf["index_location"] == "end" and sep == "/"
-                  and meta["data_type"] == "uint8" and list(outer[1:]) == list(shape[1:])
-                  and list(conf["chunk_shape"][1:]) == list(shape[1:]) and meta["fill_value"] == 0)
-        except (OSError, ValueError, KeyError, TypeError):
+                  and meta["data_type"] == "uint8" and len(shape) == 3
+                  and list(outer[1:]) == list(shape[1:]) and list(conf["chunk_shape"][1:]) == list(shape[1:])
+                  and meta["fill_value"] == 0 and all(type(v) is int for v in (*shape, chunk, shard))
+                  and 0 < chunk <= shard and shard % chunk == 0)
+        except Exception:  # anything unexpected: let zarr read it (and report what is wrong)
             return None
-        return cls(root, shape, int(conf["chunk_shape"][0]), int(outer[0])) if ok else None
+        return cls(root, shape, chunk, shard) if ok else None
 
     def _chunk(self, c: int) -> np.ndarray:
         """Packed frames of chunk c (full chunk length; frames past the end are zeros)."""
