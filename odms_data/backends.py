@@ -68,19 +68,29 @@ class ZarrBackend(Backend):
     def __init__(self, path: str, mode: str) -> None:
         import zarr
 
+        self.path = path
         try:
             self.group = zarr.open_group(store=str(path), mode=mode, zarr_format=3)
         except Exception as e:  # zarr raises several types for "not a group"
             raise StoreError(f"{path}: not a readable Zarr v3 store ({type(e).__name__}: {e})") from e
 
     def names(self) -> set[str]:
-        return set(self.group.array_keys())
+        try:
+            return set(self.group.array_keys())
+        except Exception as e:
+            raise StoreError(f"{self.path}: cannot list arrays ({type(e).__name__}: {e})") from e
 
     def array(self, name: str) -> Any:
-        return self.group[name]
+        try:
+            return self.group[name]
+        except Exception as e:  # malformed metadata surfaces as many exception types
+            raise StoreError(f"{self.path}: array '{name}' is unreadable ({type(e).__name__}: {e})") from e
 
     def read_attrs(self) -> dict[str, Any] | None:
-        return self.group.attrs.asdict().get("odms")
+        attrs = self.group.attrs.asdict().get("odms")
+        if attrs is not None and not isinstance(attrs, dict):
+            raise StoreError(f"{self.path}: attribute 'odms' is not a JSON object")
+        return attrs
 
     def write_attrs(self, attrs: dict[str, Any]) -> None:
         self.group.attrs.update({"odms": attrs})
@@ -101,25 +111,38 @@ class Hdf5Backend(Backend):
     def __init__(self, path: str, mode: str) -> None:
         import h5py
 
+        self.path = path
         try:
             self.file = h5py.File(path, {"r": "r", "r+": "r+", "w": "w"}[mode])
         except OSError as e:
             raise StoreError(f"{path}: not a readable HDF5 file ({e})") from e
 
     def names(self) -> set[str]:
-        return set(self.file.keys())
+        try:
+            return set(self.file.keys())
+        except Exception as e:
+            raise StoreError(f"{self.path}: cannot list arrays ({type(e).__name__}: {e})") from e
 
     def array(self, name: str) -> Any:
-        return self.file[name]
+        try:
+            return self.file[name]
+        except Exception as e:
+            raise StoreError(f"{self.path}: array '{name}' is unreadable ({type(e).__name__}: {e})") from e
 
     def read_attrs(self) -> dict[str, Any] | None:
-        raw = self.file.attrs.get("odms")
+        try:
+            raw = self.file.attrs.get("odms")
+        except Exception as e:  # a damaged object header surfaces as KeyError, OSError, ...
+            raise StoreError(f"{self.path}: attributes are unreadable ({type(e).__name__}: {e})") from e
         if raw is None:
             return None
         try:
-            return json.loads(raw)
+            attrs = json.loads(raw)
         except (TypeError, ValueError) as e:
-            raise StoreError(f"{self.file.filename}: attribute 'odms' is not JSON ({e})") from e
+            raise StoreError(f"{self.path}: attribute 'odms' is not JSON ({e})") from e
+        if not isinstance(attrs, dict):
+            raise StoreError(f"{self.path}: attribute 'odms' is not a JSON object")
+        return attrs
 
     def write_attrs(self, attrs: dict[str, Any]) -> None:
         self.file.attrs["odms"] = json.dumps(attrs)

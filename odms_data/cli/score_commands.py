@@ -1,0 +1,153 @@
+"""`odms-data score`, `odms-data baseline vosde` and `odms-data leaderboard`."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import click
+
+from ..errors import InputError
+from ..groundtruth import DEFAULT_DATA, ENV_VAR, data_locations, find_stores, load_truth
+from ..leaderboard import entry_from_report, load_entries, render_markdown
+from ..predictions import read_predictions, write_predictions
+from ..report import render_markdown as report_markdown
+from ..report import render_text
+from ..scoring import FAMILIES, split_order
+from ..scoring import score as score_predictions
+from ..store import open_store
+from ..vosde import DEFAULT_N_OBS
+from ..vosde import vosde as run_vosde
+
+DATA_HELP = (f"Folder of ground-truth stores, or one store (repeatable). Default: ${ENV_VAR} "
+             f"(folders separated by ':'), else {DEFAULT_DATA}.")
+
+
+@click.command()
+@click.argument("predictions", type=click.Path())
+@click.option("--data", multiple=True, type=click.Path(), help=DATA_HELP)
+@click.option("--json", "as_json", is_flag=True, help="Print the scores as JSON.")
+@click.option("--markdown", is_flag=True, help="Print the scores as a markdown table.")
+@click.option("--allow-partial", is_flag=True,
+              help="Score only the examples present (local use; flagged loudly, no All, no entry).")
+@click.option("--plot", type=click.Path(), help="Also draw percent error against true depth to this PNG.")
+@click.option("--entry", type=click.Path(), help="Also write a leaderboard entry (JSON) to this file.")
+@click.option("--name", help="Method name for --entry.")
+@click.option("--citation", help="Citation for --entry.")
+@click.option("--link", help="Link (http/https) for --entry.")
+@click.option("--n-obs", type=click.IntRange(min=2), help="Observations per example used (for --entry).")
+def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name, citation, link, n_obs):
+    """Score a predictions file (schemas/PREDICTIONS.md) against the ground-truth stores.
+
+    Per split: n, mean and median percent error, mean absolute error; All per family (val,
+    test) when robot, driving, normal and perturb are all scored in full. Exit code 2 with a
+    one-line message when the file is malformed or does not cover its splits.
+
+    \b
+    Examples:
+      odms-data score preds.csv --data ./odms-stores
+      odms-data score preds.csv --markdown --plot errors.png
+      odms-data score preds.csv --name MyNet --entry leaderboard/mynet.json
+    """
+    if as_json and markdown:
+        raise InputError("give at most one of --json and --markdown")
+    if bool(entry) != bool(name):
+        raise InputError("--entry and --name go together: --name NAME --entry OUT.json")
+    if plot:
+        from ..plots import pyplot
+
+        pyplot()  # fail before scoring when matplotlib is missing
+    preds = read_predictions(predictions)
+    stores = find_stores(data_locations(data))
+    truths = {split: load_truth(path) for split, path in stores.items()}
+    report = score_predictions(preds, truths, allow_partial=allow_partial)
+    if as_json:
+        click.echo(json.dumps(report.to_json(), indent=2))
+    elif markdown:
+        click.echo(report_markdown(report), nl=False)
+    else:
+        click.echo(render_text(report), nl=False)
+    if plot:
+        from ..plots import plot_errors
+
+        plot_errors(report, plot)
+        click.echo(f"wrote {plot}", err=True)
+    if entry:
+        e = entry_from_report(report, name, citation=citation, link=link, n_obs=n_obs,
+                              predictions_bytes=Path(predictions).read_bytes())
+        Path(entry).write_text(json.dumps(e, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
+        click.echo(f"wrote {entry}", err=True)
+
+
+@click.group()
+def baseline():
+    """Run a baseline method over stores and write its predictions file."""
+
+
+@baseline.command()
+@click.argument("stores", nargs=-1)
+@click.option("--data", multiple=True, type=click.Path(), help=DATA_HELP)
+@click.option("--n-obs", type=click.IntRange(min=2), default=DEFAULT_N_OBS, show_default=True,
+              help="Observations used per example (evenly spaced when an example has more).")
+@click.option("-o", "--output", type=click.Path(), required=True, help="Predictions CSV to write.")
+def vosde(stores, data, n_obs, output):
+    """VOS-DE (WACV 2020), the ODMS baseline, from the stored mask statistics.
+
+    STORES are split names (looked up in the data folders) or store paths; none means every
+    store in the data folders. An example whose least-squares system is singular (e.g. all
+    masks empty) is unsolvable and predicts 0, as the authors' code does; the counts are printed.
+
+    \b
+    Examples:
+      odms-data baseline vosde --data ./odms-stores -o vosde.csv
+      odms-data baseline vosde robot-test driving-test --n-obs 5 -o vosde5.csv
+      odms-data baseline vosde sim-val.zarr -o sim.csv && odms-data score sim.csv --data sim-val.zarr
+    """
+    paths = []
+    found = None
+    for s in stores:
+        if Path(s).exists():
+            paths.append(Path(s))
+            continue
+        found = found if found is not None else find_stores(data_locations(data))
+        if s not in found:
+            raise InputError(f"{s}: neither a store path nor a split in the data folders "
+                             f"(they hold: {', '.join(sorted(found))})")
+        paths.append(found[s])
+    if not stores:
+        found = find_stores(data_locations(data))
+        paths = [found[s] for s in sorted(found, key=split_order)]
+    rows, lines = [], []
+    with click.progressbar(paths, label="VOS-DE", file=sys.stderr) as bar:
+        for p in bar:
+            with open_store(str(p)) as s:
+                r = run_vosde(s, n_obs)
+            rows += r.rows()
+            lines.append(f"{r.split}: {len(r.d1)} examples, {int(r.unsolvable.sum())} unsolvable "
+                         f"(predicted 0), {int(r.empty_masks.sum())} with an empty mask among the used "
+                         "observations")
+    write_predictions(output, rows)
+    click.echo("\n".join(lines))
+    click.echo(f"wrote {output}: {len(rows)} predictions (VOS-DE, n = {n_obs})")
+
+
+@click.command()
+@click.option("--family", type=click.Choice(FAMILIES), default="test", show_default=True,
+              help="Which sets to show.")
+@click.option("--metric", type=click.Choice(["percent", "abs"]), default="percent", show_default=True,
+              help="Mean percent error or mean absolute error (cm; driving in m).")
+@click.option("--dir", "folder", type=click.Path(file_okay=False), default=None,
+              help="Folder of entries (default: the leaderboard/ shipped with odms-data).")
+def leaderboard(family, metric, folder):
+    """Print the leaderboard as markdown, sorted by All (lowest error first).
+
+    \b
+    Examples:
+      odms-data leaderboard
+      odms-data leaderboard --family val --metric abs
+    """
+    click.echo(render_markdown(load_entries(folder), family, metric), nl=False)
+
+
+COMMANDS = [score, baseline, leaderboard]

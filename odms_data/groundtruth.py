@@ -1,0 +1,96 @@
+"""Where ground truth comes from: stores found in the data folder(s), keyed by their split.
+
+The data folders are `--data DIR` (repeatable; a store path works too), else the folders in
+the environment variable ODMS_DATA (separated by ':'), else ~/.cache/odms-data. Every store
+there (`*.zarr`, `*.h5`, `*.hdf5`, generated or imported) serves the split its attributes
+name, and its example ids start with `<split>/`.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError, StoreError
+from .store import open_store
+
+ENV_VAR = "ODMS_DATA"
+DEFAULT_DATA = "~/.cache/odms-data"
+STORE_SUFFIXES = (".zarr", ".h5", ".hdf5")
+
+
+def data_locations(given: Sequence[str] = ()) -> list[Path]:
+    """The folders (or stores) to look in: `given`, else $ODMS_DATA, else the default folder."""
+    if given:
+        return [Path(g) for g in given]
+    env = os.environ.get(ENV_VAR, "")
+    if env.strip():
+        return [Path(p) for p in env.split(os.pathsep) if p]
+    return [Path(DEFAULT_DATA).expanduser()]
+
+
+def _is_store(path: Path) -> bool:
+    return path.suffix.lower() in STORE_SUFFIXES and not path.name.endswith(".partial")
+
+
+def find_stores(locations: Iterable[Path]) -> dict[str, Path]:
+    """{split: store path} over every store in `locations`; two stores of one split are an error."""
+    locations = list(locations)
+    paths: list[Path] = []
+    for loc in locations:
+        if _is_store(loc) and loc.exists():
+            paths.append(loc)
+        elif loc.is_dir():
+            paths += sorted(p for p in loc.iterdir() if _is_store(p))
+        else:
+            raise InputError(
+                f"{loc}: no such data folder or store (give --data DIR or set {ENV_VAR}; "
+                f"default {DEFAULT_DATA})"
+            )
+    found: dict[str, Path] = {}
+    for p in paths:
+        with open_store(str(p)) as s:
+            split = s.attrs.split
+        if split in found:
+            raise StoreError(f"two stores hold split {split}: {found[split]} and {p}; keep one")
+        found[split] = p
+    if not found:
+        where = ", ".join(str(loc) for loc in locations)
+        raise InputError(
+            f"no stores (*.zarr, *.h5) in {where}; give --data DIR or set {ENV_VAR} "
+            "(see `odms-data generate` and `odms-data import`)"
+        )
+    return found
+
+
+@dataclass
+class SplitTruth:
+    """The labels of one split, read from its store."""
+
+    split: str
+    domain: str
+    path: str
+    digest: str
+    example_ids: list[str]
+    d1: np.ndarray  # (E,) m, NaN when unlabelled
+
+    @property
+    def labelled_ids(self) -> list[str]:
+        keep = (~np.isnan(self.d1)).tolist()
+        return [e for e, k in zip(self.example_ids, keep, strict=True) if k]
+
+
+def load_truth(path: Path) -> SplitTruth:
+    """The ids and labels of the store at `path` (no masks are read)."""
+    with open_store(str(path)) as s:
+        ids, d1 = s.example_ids, s.d1
+        bad = [e for e in ids if not e.startswith(s.attrs.split + "/")]
+        if bad:
+            raise StoreError(
+                f"{path}: example id {bad[0]!r} does not start with its split '{s.attrs.split}/'"
+            )
+        return SplitTruth(s.attrs.split, s.attrs.domain, str(path), s.attrs.digest, ids, d1)

@@ -1,0 +1,54 @@
+"""`odms-data score --plot`: percent error against true depth, one panel per split."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .errors import InputError
+from .scoring import ScoreReport
+
+
+def pyplot():
+    """matplotlib.pyplot on the Agg backend; InputError saying how to install it when missing."""
+    try:
+        import matplotlib
+    except ImportError:
+        raise InputError(
+            "--plot needs matplotlib, which is not installed; pip install 'odms-data[plot]'"
+        ) from None
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def plot_errors(report: ScoreReport, path: str) -> None:
+    """Scatter of each example's percent error against its true depth d1, with the binned median."""
+    plt = pyplot()
+    splits = [s for s in report.scores if s.split in report.errors]
+    cols = min(4, len(splits))
+    rows = math.ceil(len(splits) / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.4 * rows), squeeze=False)
+    for ax, s in zip(axes.flat, splits, strict=False):
+        truth, pe = report.errors[s.split]
+        ax.scatter(truth, pe, s=3, alpha=0.35, linewidths=0)
+        edges = np.quantile(truth, np.linspace(0, 1, 11))
+        which = np.clip(np.searchsorted(edges, truth, side="right") - 1, 0, 9)
+        centres = [truth[which == b].mean() for b in range(10) if (which == b).any()]
+        medians = [np.median(pe[which == b]) for b in range(10) if (which == b).any()]
+        ax.plot(centres, medians, color="black", lw=1.5, label="median (depth deciles)")
+        ax.set_yscale("symlog", linthresh=10)
+        ax.set_title(f"{s.split}: mean {s.mean_percent_error:.1f}%  (n={s.n})", fontsize=9)
+        ax.set_xlabel("true depth d1 (m)")
+        ax.set_ylabel("percent error")
+        ax.grid(alpha=0.3)
+    for ax in list(axes.flat)[len(splits):]:
+        ax.set_visible(False)
+    axes.flat[0].legend(fontsize=7, loc="upper right")
+    title = f"{report.predictions}" + ("  (PARTIAL)" if report.partial else "")
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

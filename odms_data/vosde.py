@@ -1,0 +1,93 @@
+"""VOS-DE, the ODMS baseline (Griffin, Florence & Corso, WACV 2020; ODMS paper, appendix).
+
+An object's projected area a_i shrinks with depth, so (z_i - z_obj) * sqrt(a_i) is constant.
+With dz_i = z_i - z_1, least squares over the observations of
+
+    [sqrt(a_i), 1] [x0, c]^T = dz_i * sqrt(a_i)
+
+gives x0 = z_obj - z_1 and the estimate d1 = -x0. a_i is the area of the mask's largest
+8-connected region (0 for an empty mask), read from the store's `largest_area`, so no mask is
+decoded. With more than N observations, N evenly spaced ones are used:
+`numpy.linspace(0, n - 1, N)` truncated to integers; with n <= N, all n.
+
+Degenerate inputs, as the authors' released code treats them: the normal equations are solved
+with LAPACK (the same factorisation as the released code's matrix inverse); an example whose
+A^T A is singular (every used mask with the same area, e.g. all empty) is *unsolvable* and
+predicts 0, which scores as 100% error. Examples with empty masks among the used observations
+are solved as they are (an empty mask has area 0) and counted.
+
+On the official splits this reproduces the released code's figures for n = 10 (and the
+paper's, except test driving: 35.76 against the printed 36.0) and the paper's n = 2 figures.
+The paper's n = 3 and n = 5 robot and driving figures come from some other choice of
+observations and are not reproduced by this linspace rule.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import InputError
+from .store import Store
+
+DEFAULT_N_OBS = 10
+
+
+@dataclass
+class VosdeResult:
+    """VOS-DE estimates of one store's examples, in store order."""
+
+    split: str
+    example_ids: list[str]
+    d1: np.ndarray  # (E,) estimated depth at the first observation, m; 0 where unsolvable
+    unsolvable: np.ndarray  # (E,) bool, A^T A singular
+    empty_masks: np.ndarray  # (E,) bool, an empty mask among the used observations
+
+    def rows(self) -> list[tuple[str, str, float]]:
+        return [(self.split, e, float(d)) for e, d in zip(self.example_ids, self.d1, strict=True)]
+
+
+def observation_columns(n: int, n_obs: int) -> np.ndarray:
+    """Which of n observations VOS-DE uses: all when n <= n_obs, else n_obs evenly spaced."""
+    if n <= n_obs:
+        return np.arange(n)
+    return np.linspace(0, n - 1, n_obs).astype(np.int64)
+
+
+def solve(sqrt_area: np.ndarray, dz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Batched VOS-DE on (E, k) arrays: (d1 estimates, unsolvable mask)."""
+    A = np.stack([sqrt_area, np.ones_like(sqrt_area)], axis=-1)  # (E, k, 2)
+    At = A.swapaxes(1, 2)
+    AtA, Atb = At @ A, At @ (dz * sqrt_area)[..., None]
+    try:
+        x = np.linalg.solve(AtA, Atb)[..., 0]
+        return -x[:, 0], np.zeros(len(A), bool)
+    except np.linalg.LinAlgError:
+        pass  # at least one singular system: solve one by one to find which
+    d1, bad = np.zeros(len(A)), np.zeros(len(A), bool)
+    for i in range(len(A)):
+        try:
+            d1[i] = -np.linalg.solve(AtA[i], Atb[i])[0, 0]
+        except np.linalg.LinAlgError:
+            bad[i] = True
+    return d1, bad
+
+
+def vosde(store: Store, n_obs: int = DEFAULT_N_OBS) -> VosdeResult:
+    """VOS-DE estimates for every example of `store` from its stored per-frame statistics."""
+    if n_obs < 2:
+        raise InputError(f"--n-obs must be at least 2 (two unknowns), got {n_obs}")
+    fi, counts = store.frame_index, store.n_obs
+    z, largest = store.z, store.largest_area
+    E = len(fi)
+    d1, unsolvable, empty = np.zeros(E), np.zeros(E, bool), np.zeros(E, bool)
+    for n in np.unique(counts):
+        rows = np.flatnonzero(counts == n)
+        frames = fi[rows][:, observation_columns(int(n), n_obs)]
+        sqrt_area = np.sqrt(largest[frames].astype(np.float64))
+        dz = z[frames] - z[fi[rows, 0]][:, None]
+        d1[rows], unsolvable[rows] = solve(sqrt_area, dz)
+        empty[rows] = (largest[frames] == 0).any(axis=1)
+    d1[unsolvable] = 0.0
+    return VosdeResult(store.attrs.split, store.example_ids, d1, unsolvable, empty)

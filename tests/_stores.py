@@ -1,0 +1,53 @@
+"""Small hand-made stores for the scoring tests: each frame's mask is a square of a given area."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from odms_data.format import StoreAttrs
+from odms_data.masks import pack, stats_of
+from odms_data.writer import Layout, StoreWriter
+
+SIZE = 64
+
+
+def square(area: int) -> np.ndarray:
+    side = math.isqrt(area)
+    if side * side != area or side > SIZE:
+        raise ValueError(f"area {area} is not a square up to {SIZE}^2")
+    m = np.zeros((SIZE, SIZE), bool)
+    m[:side, :side] = True
+    return m
+
+
+def make_store(path, split: str, examples: list[dict], domain: str = "normal") -> str:
+    """Write a store; each example is {'z': [...], 'areas': [...], 'd1': float, 'id': optional}."""
+    masks, z, frame_index, d1, ids = [], [], [], [], []
+    width = max(len(e["z"]) for e in examples)
+    for i, e in enumerate(examples):
+        row = np.full(width, -1, np.int64)
+        row[: len(e["z"])] = np.arange(len(z), len(z) + len(e["z"]))
+        frame_index.append(row)
+        z += list(e["z"])
+        masks += [square(a) for a in e["areas"]]
+        d1.append(e["d1"])
+        ids.append(f"{split}/{e.get('id', f'{i:03d}')}")
+    masks, z = np.stack(masks), np.array(z, np.float64)
+    layout = Layout(
+        height=SIZE, width=SIZE, n_frames=len(z), n_examples=len(ids), max_obs=width,
+        id_width=max(len(i.encode()) for i in ids), source_width=4, frames_per_chunk=1,
+        frames_per_shard=len(z), examples_per_chunk=len(ids),
+    )
+    with StoreWriter(str(path)) as w:
+        w.create(layout)
+        w.write_masks(0, pack(masks))
+        w.write_frames(0, z, z, stats_of(masks))
+        w.write_examples(0, np.stack(frame_index), np.array(d1, np.float64), ids, ["test"] * len(ids))
+        w.commit(StoreAttrs(
+            split=split, domain=domain, image_size=(SIZE, SIZE),
+            counts={"examples": len(ids), "frames": len(z), "labelled": int(np.isfinite(d1).sum())},
+            source="tests", digest="sha256:" + "0" * 64,
+        ))
+    return str(path)

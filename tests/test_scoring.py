@@ -1,0 +1,163 @@
+"""Metrics against hand-computed values, reports, leaderboard entries and rendering, plots."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from _stores import make_store
+from click.testing import CliRunner
+
+from odms_data.cli import main
+from odms_data.errors import InputError
+from odms_data.leaderboard import entry_problems, family_all, load_entries, render_markdown
+from odms_data.predictions import HEADER
+from odms_data.resources import resource_dir
+from odms_data.scoring import SplitScore, percent_errors, score_split
+from odms_data.scoring import family_all as report_all
+
+OFFICIAL = [f"{d}-{f}" for f in ("val", "test") for d in ("robot", "driving", "normal", "perturb")]
+
+
+def test_metrics_against_hand_computed_values():
+    truth, pred = np.array([1.0, 2.0, 4.0, 0.5]), np.array([1.1, 1.5, 4.0, -0.5])
+    assert percent_errors(pred, truth) == pytest.approx([10.0, 25.0, 0.0, 200.0])
+    s = score_split("normal-val", "normal", pred, truth, total=4)
+    assert s.mean_percent_error == pytest.approx(58.75)
+    assert s.median_percent_error == pytest.approx(17.5)
+    assert s.mean_abs_error_m == pytest.approx((0.1 + 0.5 + 0.0 + 1.0) / 4)
+    assert (s.abs_unit, s.mean_abs_error) == ("cm", pytest.approx(40.0))
+    d = score_split("driving-val", "driving", pred, truth, total=5)
+    assert (d.abs_unit, d.mean_abs_error, d.partial) == ("m", pytest.approx(0.4), True)
+
+
+def _score(split, pct, partial=False):
+    return SplitScore(split, split.split("-")[0], 9 if partial else 10, 10, pct, pct, 0.1)
+
+
+def test_all_is_the_unweighted_mean_of_four_complete_splits():
+    scores = [_score(s, p) for s, p in zip(OFFICIAL, [10, 20, 30, 40, 1, 2, 3, 4], strict=True)]
+    assert report_all(scores) == {"val": 25.0, "test": 2.5}
+    assert report_all(scores[:3] + scores[4:]) == {"test": 2.5}
+    assert report_all([*scores[:3], _score("perturb-val", 40, partial=True)]) == {}
+    fake = SplitScore("robot-val", "generated", 10, 10, 1.0, 1.0, 0.1)  # a generated store named robot-val
+    assert report_all([fake, *scores[1:4]]) == {}
+
+
+@pytest.fixture(scope="module")
+def official_like(tmp_path_factory):
+    """Eight tiny stores named and labelled like the official splits."""
+    root = tmp_path_factory.mktemp("official-like")
+    for split in OFFICIAL:
+        domain = split.split("-")[0]
+        ex = [{"z": [d, d + 0.1], "areas": [100, 64], "d1": d} for d in (0.5, 1.0)]
+        make_store(root / f"{split}.zarr", split, ex, domain=domain)
+    return root
+
+
+def _preds(tmp_path, factor=1.1):
+    rows = [f"{s},{s}/{i:03d},{d * factor!r}" for s in OFFICIAL for i, d in enumerate((0.5, 1.0))]
+    p = tmp_path / "preds.csv"
+    p.write_text("\n".join([HEADER, *rows]) + "\n")
+    return p
+
+
+def test_score_outputs_table_markdown_and_json(tmp_path, official_like):
+    p = _preds(tmp_path)
+    run = CliRunner().invoke
+    text = run(main, ["score", str(p), "--data", str(official_like)])
+    assert text.exit_code == 0, text.output
+    assert "All (val) = 10.00" in text.stdout and "All (test) = 10.00" in text.stdout
+    assert "7.50 cm" in text.stdout  # mean of 5 and 10 cm
+    md = run(main, ["score", str(p), "--data", str(official_like), "--markdown"])
+    assert "| **All (test)** | | **10.00** | | |" in md.stdout
+    js = json.loads(run(main, ["score", str(p), "--data", str(official_like), "--json"]).stdout)
+    assert [s["split"] for s in js["splits"]] == OFFICIAL
+    assert [s["abs_unit"] for s in js["splits"]][:4] == ["cm", "m", "cm", "cm"]
+    assert js["all"] == {"val": pytest.approx(10.0), "test": pytest.approx(10.0)}
+    both = run(main, ["score", str(p), "--data", str(official_like), "--json", "--markdown"])
+    assert both.exit_code == 2
+
+
+def test_entry_is_written_schema_valid_and_joins_the_leaderboard(tmp_path, official_like):
+    p, out = _preds(tmp_path, 1.05), tmp_path / "board" / "mine.json"
+    out.parent.mkdir()
+    r = CliRunner().invoke(main, ["score", str(p), "--data", str(official_like), "--name", "Mine",
+                                  "--entry", str(out), "--link", "https://example.org/mine"])
+    assert r.exit_code == 0, r.output
+    entry = json.loads(out.read_text())
+    assert entry_problems(entry) == []
+    assert entry["figures"] == "computed" and entry["results"]["test"]["all"] == pytest.approx(5.0)
+    assert set(entry["scored"]["stores"]) == set(OFFICIAL)
+    for published in resource_dir("leaderboard").glob("*.json"):
+        (out.parent / published.name).write_text(published.read_text())
+    board = CliRunner().invoke(main, ["leaderboard", "--dir", str(out.parent)])
+    assert board.exit_code == 0, board.output
+    assert "| 1 | [Mine](https://example.org/mine) | – | – | 5.0 | 5.0 | 5.0 | 5.0 | 5.0 | computed here |" \
+        in board.stdout
+
+
+def test_entry_needs_a_name_and_a_complete_score(tmp_path, official_like):
+    p = _preds(tmp_path)
+    run = CliRunner().invoke
+    r = run(main, ["score", str(p), "--data", str(official_like), "--entry", str(tmp_path / "e.json")])
+    assert r.exit_code == 2 and "--entry and --name go together" in r.stderr
+    lines = p.read_text().splitlines()
+    p.write_text("\n".join(lines[:-1]) + "\n")
+    r = run(main, ["score", str(p), "--data", str(official_like), "--allow-partial", "--name", "X",
+                   "--entry", str(tmp_path / "e.json")])
+    assert r.exit_code == 2 and "drop --allow-partial" in r.stderr
+    assert not (tmp_path / "e.json").exists()
+
+
+def test_shipped_entries_are_valid_and_match_the_published_all():
+    entries = {e["name"]: e for e in load_entries()}
+    assert len(entries) == 25
+    assert family_all(entries["DBox"], "test") == 17.1
+    assert family_all(entries["Box_LS"], "test") == 25.3
+    assert family_all(entries["ODN_l"], "test") == pytest.approx((19.3 + 30.1 + 8.3 + 18.2) / 4)
+    assert entries["VOS-DE (paper)"]["results"]["test"]["driving"]["percent"] == 36.0
+    computed = entries["VOS-DE"]
+    assert computed["figures"] == "computed" and computed["n_obs"] == 10
+    assert round(computed["results"]["test"]["driving"]["percent"], 2) == 35.76
+
+
+def test_leaderboard_is_sorted_by_all_and_readme_shows_it():
+    board = render_markdown(load_entries())
+    rows = [line for line in board.splitlines() if line.startswith("| ") and line[2].isdigit()]
+    alls = [float(r.split("|")[-3]) for r in rows if r.split("|")[-3].strip() != "–"]
+    assert alls == sorted(alls) and rows[0].startswith("| 1 | [DBox]")
+    readme = (resource_dir("schemas").parent / "README.md").read_text()
+    assert board in readme, "README.md's leaderboard is stale: paste `odms-data leaderboard` into it"
+
+
+def test_leaderboard_rejects_an_invalid_entry(tmp_path):
+    (tmp_path / "bad.json").write_text(json.dumps({"name": "x", "results": {}}))
+    with pytest.raises(InputError, match=r"bad.json: not a valid leaderboard entry: at \(root\)"):
+        load_entries(tmp_path)
+    r = CliRunner().invoke(main, ["leaderboard", "--dir", str(tmp_path)])
+    assert r.exit_code == 2 and len(r.stderr.splitlines()) == 1
+
+
+def test_plot_is_written(tmp_path, official_like):
+    pytest.importorskip("matplotlib")
+    png = tmp_path / "errors.png"
+    r = CliRunner().invoke(main, ["score", str(_preds(tmp_path)), "--data", str(official_like),
+                                  "--plot", str(png)])
+    assert r.exit_code == 0, r.output
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_plot_without_matplotlib_says_how_to_get_it(tmp_path, official_like):
+    """A child interpreter where `import matplotlib` fails, as on an install without the extra."""
+    import subprocess
+    import sys
+
+    code = ("import sys; sys.modules['matplotlib'] = None; from odms_data.cli import main; "
+            "main(sys.argv[1:], prog_name='odms-data')")
+    args = ["score", str(_preds(tmp_path)), "--data", str(official_like), "--plot", str(tmp_path / "e.png")]
+    r = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True)
+    assert (r.returncode, r.stdout) == (2, "")
+    assert r.stderr.strip() == ("odms-data: error: --plot needs matplotlib, which is not installed; "
+                                "pip install 'odms-data[plot]'")
