@@ -28,10 +28,10 @@ from .errors import InputError
 from .format import StoreAttrs
 from .mask_files import DEFAULT_THRESHOLD, image_size, read_mask
 from .masks import FrameStats, pack, packed_width
+from .validate import Z_ODDITY
 from .writer import Layout, StoreWriter
 
 TINY_Z_STEP = 1e-4  # m; steps below this (but above 0) are recorded as an oddity
-Z_ODDITY = "z-not-increasing"
 
 
 def protocol_windows(n_frames: int, lengths: Iterable[int], n_obs: int) -> list[tuple[int, int, np.ndarray]]:
