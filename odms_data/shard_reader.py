@@ -55,11 +55,11 @@ class ShardReader:
             return None
         return cls(root, shape, chunk, shard) if ok else None
 
-    def _chunk(self, c: int) -> np.ndarray:
-        """Packed frames of chunk c (full chunk length; frames past the end are zeros)."""
-        s, k = divmod(c, self.per_shard)
+    def _chunks(self, s: int, ks: range) -> list[np.ndarray]:
+        """Packed frames of chunks ks of shard s (full chunk length; missing chunks are zeros)."""
         path = self.root / "c" / str(s) / "0" / "0"
         out_bytes = self.chunk * self.frame_bytes
+        zeros = np.zeros(out_bytes, np.uint8)
         try:
             with open(path, "rb") as f:
                 n = 16 * self.per_shard
@@ -67,18 +67,25 @@ class ShardReader:
                 raw = f.read(n + 4)
                 if self._crc(raw[:n]) != int.from_bytes(raw[n:], "little"):
                     raise StoreError(f"{path}: shard index checksum mismatch")
-                offset, nbytes = np.frombuffer(raw[:n], "<u8").reshape(-1, 2)[k]
-                if offset == MISSING:
-                    return np.zeros(out_bytes, np.uint8)
-                f.seek(int(offset))
-                data = self._zstd.decode(f.read(int(nbytes)))
+                index = np.frombuffer(raw[:n], "<u8").reshape(-1, 2)[ks.start : ks.stop]
+                present = index[:, 0] != MISSING
+                if not present.any():
+                    return [zeros] * len(ks)
+                lo = int(index[present, 0].min())
+                hi = int((index[present, 0] + index[present, 1]).max())
+                f.seek(lo)
+                span = f.read(hi - lo)  # the chunks of a range lie together: one read
+            out = []
+            for (offset, nbytes), ok in zip(index, present, strict=True):
+                data = self._zstd.decode(span[int(offset) - lo : int(offset + nbytes) - lo]) if ok else zeros
+                if len(data) != out_bytes:
+                    raise StoreError(f"{path}: a chunk holds {len(data)} bytes, expected {out_bytes}")
+                out.append(np.frombuffer(data, np.uint8))
+            return out
         except FileNotFoundError:
-            return np.zeros(out_bytes, np.uint8)
+            return [zeros] * len(ks)
         except (OSError, RuntimeError, ValueError) as e:  # numcodecs raises RuntimeError on bad data
-            raise StoreError(f"{path}: chunk {k} is unreadable ({e})") from e
-        if len(data) != out_bytes:
-            raise StoreError(f"{path}: chunk {k} holds {len(data)} bytes, expected {out_bytes}")
-        return np.frombuffer(data, np.uint8)
+            raise StoreError(f"{path}: unreadable ({e})") from e
 
     def read(self, start: int, stop: int) -> np.ndarray:
         """Packed masks of frames [start, stop)."""
@@ -86,7 +93,11 @@ class ShardReader:
         if stop <= start:
             return np.zeros((0, *self.shape[1:]), np.uint8)
         first, last = start // self.chunk, (stop - 1) // self.chunk
-        block = np.concatenate([self._chunk(c) for c in range(first, last + 1)])
-        block = block.reshape(-1, *self.shape[1:])
+        parts = []
+        for s in range(first // self.per_shard, last // self.per_shard + 1):
+            k0 = max(first, s * self.per_shard) - s * self.per_shard
+            k1 = min(last + 1, (s + 1) * self.per_shard) - s * self.per_shard
+            parts += self._chunks(s, range(k0, k1))
+        block = np.concatenate(parts).reshape(-1, *self.shape[1:])
         base = first * self.chunk
         return block[start - base : stop - base]
