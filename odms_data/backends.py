@@ -131,10 +131,15 @@ class Hdf5Backend(Backend):
             raise StoreError(f"{self.path}: cannot list arrays ({type(e).__name__}: {e})") from e
 
     def array(self, name: str) -> Any:
+        import h5py
+
         try:
-            return self.file[name]
+            arr = self.file[name]
         except Exception as e:
             raise StoreError(f"{self.path}: array '{name}' is unreadable ({type(e).__name__}: {e})") from e
+        if not isinstance(arr, h5py.Dataset):  # a damaged header can turn it into a group or type
+            raise StoreError(f"{self.path}: '{name}' is a {type(arr).__name__}, not an array")
+        return arr
 
     def read_attrs(self) -> dict[str, Any] | None:
         try:

@@ -12,6 +12,7 @@ from .backends import Backend, open_backend
 from .errors import InputError, StoreError
 from .format import EXAMPLE_ARRAYS, FRAME_ARRAYS, StoreAttrs, decode_strings
 from .masks import unpack
+from .shard_reader import ShardReader
 
 
 @dataclass
@@ -39,6 +40,7 @@ class Store:
         self.format = backend.kind
         self.height, self.width = attrs.image_size
         self._masks = backend.array("masks")
+        self._fast = ShardReader.open(path) if backend.kind == "zarr" else None
 
     # --- sizes -------------------------------------------------------------------------
     @property
@@ -128,7 +130,7 @@ class Store:
     def read_packed(self, start: int, stop: int) -> np.ndarray:
         """Packed masks of frames [start, stop)."""
         try:
-            return np.asarray(self._masks[start:stop])
+            return self._fast.read(start, stop) if self._fast else np.asarray(self._masks[start:stop])
         except Exception as e:
             raise StoreError(
                 f"{self.path}: masks of frames {start}..{stop - 1} are unreadable ({e})"

@@ -55,9 +55,10 @@ def main() -> None:
 
 
 def _register() -> None:
-    from . import generate_command, score_commands, store_commands
+    from . import generate_command, import_commands, score_commands, store_commands
 
     main.add_command(generate_command.generate)
+    main.add_command(import_commands.import_group)
     for cmd in store_commands.COMMANDS + score_commands.COMMANDS:
         main.add_command(cmd)
 

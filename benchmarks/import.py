@@ -1,0 +1,140 @@
+"""Importing the official release: time, store size and random access, against baselines measured
+in the same run.
+
+Run by hand: `python benchmarks/import.py [--archive ../shared/data/odms-v1.tar.gz]`.
+- Import: `odms-data import odms` in a subprocess; wall time and CPU time (user + sys of the
+  whole process tree). Baseline: `cv2.imread` of a sample of the release's PNGs in one process,
+  extrapolated to all of them (decoding alone, nothing written).
+- Size: the eight stores (file bytes and disk blocks) against the PNGs and the archive.
+- Random access: reading whole examples with `Store.example` against `cv2.imread` of the same
+  PNGs (thresholded to the same bool masks), the same random examples, both warm.
+
+Measured 2026-11-23 on the 2-core development machine, shared with other jobs (load average
+5.8 to 8.3), 2 workers: decode baseline 228 CPU s for the 117,272 PNGs; import 403 s wall,
+282 CPU s (1.24 x the baseline; about 141 s if the two cores were free, not measured). Stores
+16.74 MB of files (18.28 MB on disk), 143 B/mask with every array, PNGs 178 MB (10.6 x).
+Random access, median per example: store 0.9 to 6.1 ms, cv2.imread 17 to 83 ms; 11.9 to 30 x
+faster in wall time, 8.0 to 18.5 x in CPU time (robot the lowest: 10 small PNGs, 0.8 ms each).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import random
+import resource
+import shutil
+import subprocess
+import sys
+import tarfile
+import tempfile
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from odms_data.import_odms import SPLITS, scan_split
+from odms_data.store import open_store
+
+REPO = Path(__file__).resolve().parents[1]
+ARCHIVE = Path(os.environ.get("ODMS_SHARED", REPO.parent / "shared")) / "data" / "odms-v1.tar.gz"
+
+
+def tree_bytes(path: Path) -> tuple[int, int]:
+    """(file bytes, disk bytes) under path."""
+    files = [p for p in path.rglob("*") if p.is_file()]
+    return sum(p.stat().st_size for p in files), sum(p.stat().st_blocks * 512 for p in files)
+
+
+def children_cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def decode_baseline(pngs: list[Path], sample: int) -> float:
+    """CPU seconds per PNG of cv2.imread (GRAYSCALE) over a random sample."""
+    chosen = random.Random(0).sample(pngs, min(sample, len(pngs)))
+    t = time.process_time()
+    for p in chosen:
+        cv2.imread(str(p), cv2.IMREAD_GRAYSCALE)
+    return (time.process_time() - t) / len(chosen)
+
+
+def random_access(data: Path, stores: Path, per_split: int) -> list[tuple[str, float, float, float, float]]:
+    """(split, then wall and CPU ms per example from the store, then the same via cv2.imread).
+
+    Medians over the same random examples; CPU time (all threads of this process) is the fairer
+    figure on a busy machine, where zarr's hand-off to its I/O thread waits for the scheduler.
+    """
+    out = []
+    rng = random.Random(1)
+    for split in SPLITS:
+        folders, _ = scan_split(data, split, False)
+        examples = [(eid, [f.files[i] for i in offsets]) for f in folders for eid, offsets, _ in f.examples]
+        chosen = rng.sample(examples, per_split)
+        with open_store(str(stores / f"{split}.zarr")) as s:
+            s.example(0)  # load the small arrays once
+            times: dict[str, list[tuple[float, float]]] = {"store": [], "png": []}
+            for eid, files in chosen:
+                t, c = time.perf_counter(), time.process_time()
+                masks = s.example(eid).masks
+                times["store"].append((time.perf_counter() - t, time.process_time() - c))
+                t, c = time.perf_counter(), time.process_time()
+                pngs = np.stack([cv2.imread(str(f), cv2.IMREAD_GRAYSCALE) > 0 for f in files])
+                times["png"].append((time.perf_counter() - t, time.process_time() - c))
+                assert np.array_equal(masks, pngs), eid
+        med = {k: 1e3 * np.median(np.array(v), axis=0) for k, v in times.items()}
+        out.append((split, *med["store"], *med["png"]))
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--archive", type=Path, default=ARCHIVE)
+    ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    ap.add_argument("--sample", type=int, default=3000, help="PNGs decoded for the baseline")
+    ap.add_argument("--examples", type=int, default=100, help="random examples per split")
+    a = ap.parse_args()
+    if not a.archive.is_file():
+        raise SystemExit(f"archive not found: {a.archive}")
+    tmp = Path(tempfile.mkdtemp())
+    try:
+        t = time.perf_counter()
+        with tarfile.open(a.archive) as tar:
+            tar.extractall(tmp, filter="data")
+        data = tmp / "data"
+        print(f"extracted the archive in {time.perf_counter() - t:.0f} s")
+        pngs = sorted(data.rglob("*.png"))
+        png_bytes = sum(p.stat().st_size for p in pngs)
+        per_png = {kind: decode_baseline([p for p in pngs if f"/{kind}/" in str(p)], a.sample // 4)
+                   for kind in ("robot", "driving", "normal", "perturb")}
+        decode_cpu = sum(per_png[k] * sum(f"/{k}/" in str(p) for p in pngs) for k in per_png)
+        print(f"baseline: cv2.imread of all {len(pngs)} PNGs ~ {decode_cpu:.0f} CPU s "
+              f"({', '.join(f'{k} {1e3 * v:.2f} ms' for k, v in per_png.items())}); "
+              f"load average now {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+        stores = tmp / "stores"
+        cpu0, t = children_cpu(), time.perf_counter()
+        subprocess.run([sys.executable, "-m", "odms_data.cli", "import", "odms", str(data), "-o",
+                        str(stores), "--workers", str(a.workers)], check=True, stderr=subprocess.DEVNULL)
+        wall, cpu = time.perf_counter() - t, children_cpu() - cpu0
+        print(f"import: {wall:.0f} s wall, {cpu:.0f} CPU s ({cpu / decode_cpu:.2f} x the decode "
+              f"baseline; {a.workers} workers; load average now {os.getloadavg()[0]:.1f})")
+        total, disk = 0, 0
+        for split in SPLITS:
+            b, d = tree_bytes(stores / f"{split}.zarr")
+            total, disk = total + b, disk + d
+            print(f"  {split:13} {b / 1e6:6.2f} MB")
+        print(f"size: {total / 1e6:.2f} MB of files ({disk / 1e6:.2f} MB on disk) for {len(pngs)} masks, "
+              f"{total / len(pngs):.0f} B/mask; PNGs {png_bytes / 1e6:.0f} MB "
+              f"({png_bytes / total:.1f} x), archive {a.archive.stat().st_size / 1e6:.0f} MB")
+        print(f"random access, median ms per example over {a.examples} random examples (wall / CPU):")
+        for split, w_store, c_store, w_png, c_png in random_access(data, stores, a.examples):
+            print(f"  {split:13} store {w_store:6.2f} / {c_store:6.2f}   cv2.imread {w_png:7.2f} / "
+                  f"{c_png:7.2f}   {w_png / w_store:5.1f} x / {c_png / c_store:5.1f} x faster")
+    finally:
+        shutil.rmtree(tmp)
+
+
+if __name__ == "__main__":
+    main()

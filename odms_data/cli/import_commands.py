@@ -1,0 +1,159 @@
+"""`odms-data import odms` and `odms-data import recording`."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import click
+
+from ..errors import InputError
+from ..import_odms import SPLITS, import_release
+from ..import_recording import import_recording
+from ..mask_files import DEFAULT_THRESHOLD
+from .progress import progress
+
+
+class _Bars:
+    """One progress bar per label, restarted when the count goes back (a re-run after skipping)."""
+
+    def __init__(self) -> None:
+        self.cm, self.label, self.last = None, None, 0
+
+    def __call__(self, label: str, done: int, total: int) -> None:
+        if label != self.label or done < self.last:
+            self.close()
+            self.cm, self.label, self.last = progress(total, f"importing {label}"), label, 0
+            self.update = self.cm.__enter__()
+        self.update(done - self.last)
+        self.last = done
+
+    def close(self) -> None:
+        if self.cm is not None:
+            self.cm.__exit__(None, None, None)
+            self.cm = None
+
+    def __enter__(self) -> _Bars:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def _report_skipped(oddities: list[dict[str, str]], what: str) -> None:
+    skipped = [o for o in oddities if o["kind"] == "skipped"]
+    if skipped:
+        click.echo(f"skipped {len(skipped)} {what}:")
+        for o in skipped:
+            click.echo(f"  {o['detail']}")
+
+
+def _windows(text: str | None) -> list[int] | None:
+    if text is None:
+        return None
+    try:
+        values = [int(t) for t in text.split(",")]
+    except ValueError:
+        raise InputError(f"--windows '{text}': expected frame counts separated by commas, "
+                         "e.g. 10,15,20,25,30") from None
+    return values
+
+
+@click.group("import")
+def import_group() -> None:
+    """Import real segmentations: the official ODMS release or your own recording.
+
+    \b
+    Examples:
+      odms-data import odms ODMS/data -o stores/
+      odms-data import recording masks/ --positions positions.csv -o cup.zarr
+    """
+
+
+@import_group.command("odms")
+@click.argument("data_dir", type=click.Path())
+@click.option("-o", "--output", "out_dir", type=click.Path(), required=True,
+              help="Folder for the stores <split>.zarr (or .h5).")
+@click.option("--split", "splits", multiple=True, type=click.Choice(SPLITS),
+              help="Import only this split (repeatable; default: all eight).")
+@click.option("--format", "fmt", type=click.Choice(["zarr", "hdf5"]), default="zarr", show_default=True,
+              help="Store backend.")
+@click.option("--overwrite", is_flag=True, help="Replace existing stores.")
+@click.option("--skip-bad", is_flag=True,
+              help="Leave out bad folders, import the rest and report what was skipped.")
+@click.option("--no-verify", is_flag=True,
+              help="Accept content that differs from splits/<split>.json (stored as <split>-modified).")
+@click.option("--workers", type=click.IntRange(min=1), default=os.cpu_count() or 1,
+              show_default="all cores", help="Decoding processes.")
+def odms(data_dir, out_dir, splits, fmt, overwrite, skip_bad, no_verify, workers):
+    """Import the official ODMS release into one verified store per split.
+
+    DATA_DIR is the release's data/ folder (val/ and test/ inside), as in the authors'
+    repository griffbr/ODMS. Each store is checked against its manifest in splits/.
+
+    \b
+    Example:
+      odms-data import odms ODMS/data -o stores/
+    """
+    with _Bars() as bars:
+        result = import_release(
+            data_dir, out_dir, splits=list(splits) or None, fmt=fmt, overwrite=overwrite,
+            progress=bars, skip_bad=skip_bad, verify=not no_verify, workers=workers,
+        )
+    suffix = ".zarr" if fmt == "zarr" else ".h5"
+    for name, attrs in result.items():
+        path = Path(out_dir) / f"{name}{suffix}"
+        verdict = (f"matches splits/{name}.json" if attrs.split == name
+                   else f"differs from splits/{name}.json, stored as split {attrs.split}")
+        click.echo(f"wrote {path}: {attrs.counts['examples']} examples, {attrs.counts['frames']} frames, "
+                   f"{len(attrs.oddities)} oddities recorded; {verdict}")
+        _report_skipped(attrs.oddities, f"folder(s) of {name}")
+
+
+@import_group.command("recording")
+@click.argument("mask_dir", type=click.Path())
+@click.option("--positions", type=click.Path(), required=True,
+              help="CSV with columns frame, z[, depth] (schemas/RECORDING.md).")
+@click.option("-o", "--output", type=click.Path(), default=None,
+              help="Output store (default: <MASK_DIR name>.zarr).")
+@click.option("--windows", default=None, metavar="N,N,...",
+              help="Windowed examples of these frame counts (robot protocol: 10,15,20,25,30); "
+                   "default: one example over all frames.")
+@click.option("--n-obs", type=click.IntRange(min=2), default=None,
+              help="Observations per windowed example (default 10).")
+@click.option("--threshold", type=click.IntRange(0, 255), default=DEFAULT_THRESHOLD, show_default=True,
+              help="Non-binary masks (JPEG, anti-aliased): pixels >= this are object.")
+@click.option("--d1", type=float, default=None,
+              help="Known depth (m) at the closest frame of a static object; labels every example.")
+@click.option("--name", default=None, help="Name used in the store and its example ids "
+              "(default: the output's name).")
+@click.option("--format", "fmt", type=click.Choice(["zarr", "hdf5"]), default=None,
+              help="Store backend (default: from the output suffix, else zarr).")
+@click.option("--overwrite", is_flag=True, help="Replace an existing store.")
+@click.option("--skip-bad", is_flag=True, help="Leave out bad rows and files, report what was skipped.")
+@click.option("--workers", type=click.IntRange(min=1), default=os.cpu_count() or 1,
+              show_default="all cores", help="Decoding processes.")
+def recording(mask_dir, positions, output, windows, n_obs, threshold, d1, name, fmt, overwrite,
+              skip_bad, workers):
+    """Import your own recording: a folder of masks plus the camera position of each.
+
+    Masks are PNG or JPEG files of any segmentation method; unlabelled recordings (no depth
+    column, no --d1) are allowed, for a baseline to estimate their depth.
+
+    \b
+    Examples:
+      odms-data import recording masks/ --positions positions.csv -o cup.zarr
+      odms-data import recording masks/ --positions positions.csv --windows 10,15,20,25,30 --n-obs 10
+    """
+    window_list = _windows(windows)
+    if n_obs is not None and window_list is None:
+        raise InputError("--n-obs applies to windowed examples; give --windows too")
+    with _Bars() as bars:
+        path, attrs = import_recording(
+            mask_dir, positions, output, windows=window_list, n_obs=n_obs or 10, threshold=threshold,
+            d1=d1, name=name, fmt=fmt, overwrite=overwrite, skip_bad=skip_bad, workers=workers,
+            progress=lambda done, total: bars(str(mask_dir), done, total),
+        )
+    click.echo(f"wrote {path}: {attrs.counts['examples']} example(s) ({attrs.counts['labelled']} labelled), "
+               f"{attrs.counts['frames']} frames, digest {attrs.digest}")
+    _report_skipped(attrs.oddities, "row(s) or file(s)")

@@ -1,0 +1,211 @@
+"""Importing a user's own recording: a folder of mask images and a positions CSV -> a store.
+
+The CSV's columns and units are documented in schemas/RECORDING.md. Frames are ordered by z
+(closest first). The store holds one example over all frames, or the robot protocol's windowed
+examples (`windows` lengths, `n_obs` frames evenly spaced in each). Labels come from a `depth`
+column (d1 = depth at an example's closest frame), from a known `d1` for a static object (depth =
+d1 + z - smallest z), or not at all (unlabelled examples, d1 NaN).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+from .format import StoreAttrs
+from .importing import BadFiles, Plan, Workers, build_store, protocol_windows
+from .mask_files import DEFAULT_THRESHOLD, is_mask_file
+from .splits import split_names
+
+COLUMNS = ("frame", "z", "depth")
+FRAMES_PER_CHUNK = 32
+FRAMES_PER_SHARD = 512
+
+
+def _number(text: str, where: str, column: str, *, blank_ok: bool = False) -> float:
+    if blank_ok and text.strip() in ("", "nan", "NaN", "NA"):
+        return math.nan
+    try:
+        value = float(text)
+    except ValueError:
+        raise InputError(f"{where}: {column} '{text}' is not a number") from None
+    if not math.isfinite(value):
+        raise InputError(f"{where}: {column} '{text}' is not a finite number")
+    return value
+
+
+def read_positions(
+    positions: Path, mask_dir: Path, skip_bad: bool
+) -> tuple[list[Path], np.ndarray, np.ndarray | None, list[dict[str, str]]]:
+    """Mask files, z and depth (None without a depth column) of the listed frames, in CSV order,
+    and the frames skipped (skip_bad) as oddities; InputError for the first problem otherwise."""
+    import pandas as pd
+
+    try:
+        table = pd.read_csv(positions, dtype=str, keep_default_na=False, skipinitialspace=True)
+    except FileNotFoundError:
+        raise InputError(f"{positions}: no such file") from None
+    except pd.errors.EmptyDataError:
+        raise InputError(f"{positions}: is empty (expected a header line 'frame,z')") from None
+    except (pd.errors.ParserError, UnicodeDecodeError, OSError) as e:
+        raise InputError(f"{positions}: not a readable CSV ({' '.join(str(e).split())})") from None
+    table.columns = [str(c).strip() for c in table.columns]
+    unknown = [c for c in table.columns if c not in COLUMNS]
+    if unknown:
+        raise InputError(f"{positions}: unknown column '{unknown[0]}'; the columns are frame, z and "
+                         "optionally depth (see schemas/RECORDING.md)")
+    for c in ("frame", "z"):
+        if c not in table.columns:
+            raise InputError(f"{positions}: no '{c}' column (the columns are frame, z[, depth])")
+    has_depth = "depth" in table.columns
+    files, z, depth, skipped = [], [], [], []
+    seen_frame: dict[str, int] = {}
+    seen_z: dict[float, int] = {}
+    named = set()  # frames named on any row, good or bad
+    for i, row in enumerate(table.itertuples(index=False)):
+        where = f"{positions} line {i + 2}"
+        try:
+            frame = row.frame.strip()
+            named.add((mask_dir / frame).resolve())
+            if not frame:
+                raise InputError(f"{where}: frame is empty")
+            if frame in seen_frame:
+                first = seen_frame[frame]
+                raise InputError(f"{where}: frame '{frame}' is listed twice (first on line {first})")
+            zi = _number(row.z, where, "z")
+            if zi in seen_z:
+                raise InputError(f"{where}: duplicate position z = {row.z.strip()} (as on line "
+                                 f"{seen_z[zi]}); each frame needs its own position")
+            di = _number(row.depth, where, "depth", blank_ok=True) if has_depth else math.nan
+            if not di > 0 and not math.isnan(di):
+                raise InputError(f"{where}: depth {row.depth.strip()} is not a positive distance")
+            path = mask_dir / frame
+            if not path.is_file():
+                raise InputError(f"{where}: frame '{frame}' not found in {mask_dir}")
+        except InputError as e:
+            if not skip_bad:
+                raise
+            skipped.append({"example": f"line {i + 2}", "kind": "skipped", "detail": str(e)})
+            continue
+        seen_frame[frame], seen_z[zi] = i + 2, i + 2
+        files.append(path)
+        z.append(zi)
+        depth.append(di)
+    for p in sorted(mask_dir.iterdir()):
+        if is_mask_file(p) and p.resolve() not in named:
+            message = f"{p}: no row in {positions} (every mask needs its camera position)"
+            if not skip_bad:
+                raise InputError(message)
+            skipped.append({"example": p.name, "kind": "skipped", "detail": message})
+    return files, np.array(z, np.float64), np.array(depth, np.float64) if has_depth else None, skipped
+
+
+def _store_name(name: str | None, out: Path, mask_dir: Path) -> str:
+    if name is None:
+        name = re.sub(r"[^A-Za-z0-9._-]", "-", out.name.split(".")[0] or mask_dir.name).lstrip("._-")
+        name = name or "recording"
+    if not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9._-]*", name):
+        raise InputError(f"name '{name}': use letters, digits, '.', '_' and '-', starting with a letter "
+                         "or digit")
+    if name in split_names():
+        raise InputError(f"name '{name}' is an official split; choose another name for a recording")
+    return name
+
+
+def make_plan(
+    name: str, mask_dir: Path, files: list[Path], z: np.ndarray, depth: np.ndarray,
+    windows: list[int] | None, n_obs: int, threshold: int, skipped: list[dict[str, str]],
+) -> Plan:
+    if len(files) < 2:
+        raise InputError(f"{mask_dir}: {len(files)} usable frame(s), at least 2 are needed")
+    order = np.argsort(z, kind="stable")
+    files, z, depth = [files[i] for i in order], z[order], depth[order]
+    n = len(files)
+    if windows:
+        too_long = [w for w in windows if w > n]
+        if too_long:
+            raise InputError(f"{mask_dir}: window of {too_long[0]} frames does not fit the recording's "
+                             f"{n} frames")
+        if n_obs > min(windows):
+            raise InputError(f"--n-obs {n_obs} is more than the shortest window ({min(windows)} frames)")
+        digits = max(2, len(str(n - 1)))
+        spans = protocol_windows(n, windows, n_obs)
+        ids = [f"{name}/w{w}-{s:0{digits}d}" for w, s, _ in spans]
+        frame_index = np.stack([idx for _, _, idx in spans])
+    else:
+        ids, frame_index = [f"{name}/all"], np.arange(n)[None, :]
+    d1 = depth[frame_index[:, 0]]
+    return Plan(
+        split=name, domain="recording", source=f"recording {mask_dir.name}", files=files, z=z,
+        depth=depth, frame_index=frame_index, d1=d1, ids=ids, sources=[mask_dir.name] * len(ids),
+        frames_per_chunk=FRAMES_PER_CHUNK, frames_per_shard=FRAMES_PER_SHARD,
+        oddities=list(skipped), threshold=threshold,
+    )
+
+
+def import_recording(
+    mask_dir: str | Path,
+    positions: str | Path,
+    out: str | Path | None = None,
+    *,
+    windows: list[int] | None = None,
+    n_obs: int = 10,
+    threshold: int = DEFAULT_THRESHOLD,
+    d1: float | None = None,
+    name: str | None = None,
+    fmt: str | None = None,
+    overwrite: bool = False,
+    skip_bad: bool = False,
+    workers: int | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> tuple[str, StoreAttrs]:
+    """Import the recording into a store at `out` (default `<mask_dir name>.zarr`); returns the
+    store path and attributes. With skip_bad, bad rows and files are left out and recorded as
+    oddities of kind "skipped"."""
+    mask_dir, positions = Path(mask_dir), Path(positions)
+    if not mask_dir.is_dir():
+        raise InputError(f"{mask_dir}: no such folder")
+    if not 0 <= threshold <= 255:
+        raise InputError(f"threshold {threshold} is outside 0..255")
+    if n_obs < 2:
+        raise InputError(f"--n-obs {n_obs}: at least 2 observations are needed")
+    if windows is not None and (not windows or min(windows) < 2):
+        raise InputError("windows must be lengths of at least 2 frames, e.g. 10,15,20,25,30")
+    if d1 is not None and not (math.isfinite(d1) and d1 > 0):
+        raise InputError(f"d1 {d1} is not a positive distance")
+    if out is None:
+        out = Path(mask_dir.resolve().name + (".h5" if fmt == "hdf5" else ".zarr"))
+    out = Path(out)
+    name = _store_name(name, out, mask_dir.resolve())
+    files, z, depth, skipped = read_positions(positions, mask_dir, skip_bad)
+    if depth is not None and d1 is not None:
+        raise InputError(f"{positions}: has a depth column; give either per-frame depth or --d1, not both")
+    if depth is None:  # a known d1 means a static object: depth = d1 + z - smallest z
+        depth = d1 + (z - z.min()) if d1 is not None and len(z) else np.full(len(z), math.nan)
+    with Workers(workers) as pool:
+        while True:
+            plan = make_plan(name, mask_dir, files, z, depth, windows, n_obs, threshold, skipped)
+            done = 0
+
+            def step(k: int, total: int = len(plan.files)) -> None:
+                nonlocal done
+                done += k
+                progress(done, total)
+
+            try:
+                attrs = build_store(plan, out, fmt, pool, overwrite=overwrite, collect_all=skip_bad,
+                                    progress=step if progress else None)
+                return str(out), attrs
+            except BadFiles as e:
+                if not skip_bad:
+                    raise
+                bad = {str(plan.files[row]) for row, _ in e.failures}
+                skipped = skipped + [{"example": plan.files[row].name, "kind": "skipped", "detail": m}
+                                     for row, m in e.failures]
+                keep = [i for i, f in enumerate(files) if str(f) not in bad]
+                files, z, depth = [files[i] for i in keep], z[keep], depth[keep]

@@ -1,0 +1,111 @@
+"""Mask image files (PNG or JPEG) read into binary masks, with one-line errors naming the file.
+
+A file is checked before it is decoded (PNG: signature, chunk CRCs, IEND; JPEG: start and end
+markers), so a truncated or corrupt file is reported as such rather than decoded to garbage.
+Binarisation: a mask whose pixels take at most two values, one of them 0, is binary and
+everything nonzero is object (0/1 and 0/255 PNGs, 1-bit PNGs); any other mask (JPEG, anti-aliased)
+is thresholded, pixels >= `threshold` being object.
+"""
+
+from __future__ import annotations
+
+import struct
+import zlib
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from .errors import InputError
+
+cv2.setNumThreads(1)
+
+MASK_SUFFIXES = (".png", ".jpg", ".jpeg")
+DEFAULT_THRESHOLD = 128
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def is_mask_file(path: Path) -> bool:
+    return path.suffix.lower() in MASK_SUFFIXES and not path.name.startswith(".")
+
+
+def _check_png(path: Path, data: bytes) -> tuple[int, int]:
+    """(height, width) of a structurally sound PNG; InputError naming what is wrong otherwise."""
+    if not data.startswith(PNG_SIGNATURE):
+        raise InputError(f"{path}: not a PNG file (bad signature)")
+    pos, size, seen_end = 8, None, False
+    while pos < len(data):
+        if pos + 12 > len(data):
+            raise InputError(f"{path}: truncated PNG (chunk header cut off at byte {pos})")
+        length, kind = struct.unpack(">I4s", data[pos : pos + 8])
+        end = pos + 12 + length
+        if end > len(data):
+            raise InputError(f"{path}: truncated PNG ({kind.decode('latin-1')} chunk cut off)")
+        body = data[pos + 8 : end - 4]
+        if zlib.crc32(kind + body) != struct.unpack(">I", data[end - 4 : end])[0]:
+            raise InputError(f"{path}: corrupt PNG (CRC error in {kind.decode('latin-1')} chunk)")
+        if kind == b"IHDR":
+            width, height = struct.unpack(">II", body[:8])
+            size = (height, width)
+        if kind == b"IEND":
+            seen_end = True
+            break
+        pos = end
+    if size is None:
+        raise InputError(f"{path}: corrupt PNG (no IHDR chunk)")
+    if not seen_end:
+        raise InputError(f"{path}: truncated PNG (no IEND chunk)")
+    return size
+
+
+def _check_jpeg(path: Path, data: bytes) -> None:
+    if not data.startswith(b"\xff\xd8"):
+        raise InputError(f"{path}: not a JPEG file (bad start marker)")
+    if not data.rstrip(b"\0").endswith(b"\xff\xd9"):
+        raise InputError(f"{path}: truncated JPEG (no end-of-image marker)")
+
+
+def image_size(path: Path) -> tuple[int, int]:
+    """(height, width) of a mask file, read from its header (PNG) or by decoding it (JPEG)."""
+    if path.suffix.lower() == ".png":
+        return _check_png(path, _read(path))
+    return read_mask(path).shape
+
+
+def _read(path: Path) -> bytes:
+    try:
+        return path.read_bytes()
+    except OSError as e:
+        raise InputError(f"{path}: cannot be read ({e.strerror or e})") from None
+
+
+def read_mask(path: Path, threshold: int = DEFAULT_THRESHOLD) -> np.ndarray:
+    """(H, W) bool mask of the file at `path`, True = object."""
+    data = _read(path)
+    if path.suffix.lower() == ".png":
+        _check_png(path, data)
+    else:
+        _check_jpeg(path, data)
+    # PNGs keep their bit depth (a 16-bit 0/1 label image would read as empty in 8 bits)
+    flag = cv2.IMREAD_UNCHANGED if path.suffix.lower() == ".png" else cv2.IMREAD_GRAYSCALE
+    img = cv2.imdecode(np.frombuffer(data, np.uint8), flag)
+    if img is None:
+        raise InputError(f"{path}: cannot be decoded as an image")
+    if img.ndim == 3:
+        img = cv2.cvtColor(img, cv2.COLOR_BGRA2GRAY if img.shape[2] == 4 else cv2.COLOR_BGR2GRAY)
+    return binarize(img, threshold)
+
+
+def binarize(img: np.ndarray, threshold: int = DEFAULT_THRESHOLD) -> np.ndarray:
+    """Binary rule for two-valued masks with 0, threshold for the rest (see the module doc).
+
+    `threshold` is on the 8-bit scale; for 16-bit images it is scaled by 257.
+    """
+    threshold *= 257 if img.dtype == np.uint16 else 1
+    mask = img >= threshold
+    if mask.any():  # then max >= threshold, where both rules agree on {0, max} masks
+        return mask
+    lo, hi = cv2.minMaxLoc(img)[:2]
+    if lo == 0 and hi > 0 and cv2.countNonZero(img) == cv2.countNonZero(cv2.compare(img, hi, cv2.CMP_EQ)):
+        return img != 0
+    return mask
