@@ -10,6 +10,7 @@ d1 + z - smallest z), or not at all (unlabelled examples, d1 NaN).
 from __future__ import annotations
 
 import math
+import os
 import re
 from collections.abc import Callable
 from pathlib import Path
@@ -71,7 +72,7 @@ def read_positions(
         where = f"{positions} line {i + 2}"
         try:
             frame = row.frame.strip()
-            named.add((mask_dir / frame).resolve())
+            named.add(os.path.normpath(frame))
             if not frame:
                 raise InputError(f"{where}: frame is empty")
             if frame in seen_frame:
@@ -97,7 +98,7 @@ def read_positions(
         z.append(zi)
         depth.append(di)
     for p in sorted(mask_dir.iterdir()):
-        if is_mask_file(p) and p.resolve() not in named:
+        if is_mask_file(p) and p.name not in named:  # no resolve(): it raises on symlink loops
             message = f"{p}: no row in {positions} (every mask needs its camera position)"
             if not skip_bad:
                 raise InputError(message)
