@@ -13,6 +13,7 @@ import pytest
 
 from odms_data.generate import generate
 from odms_data.generator import PRESETS
+from odms_data.splits import load_manifest
 from odms_data.store import open_store
 from odms_data.validate import validate
 
@@ -83,3 +84,11 @@ def test_second_writer_is_refused(tmp_path):
     assert second.returncode == 2
     assert f"another odms-data process (pid {first.pid}) is writing this store" in second.stderr
     assert len(second.stderr.strip().splitlines()) == 1
+
+
+def test_import_survives_kill_9(tmp_path, official_data_dir):
+    out_dir = tmp_path / "stores"
+    expected = load_manifest("robot-val").digest
+    args = ["import", "odms", str(official_data_dir), "--split", "robot-val", "-o", str(out_dir),
+            "--workers", "1"]
+    kill_at_random_moments(args, out_dir / "robot-val.zarr", expected, seed=3)
