@@ -23,6 +23,11 @@ def is_url(path: str) -> bool:
     return "://" in str(path)
 
 
+def storage_options(path: str) -> dict[str, Any] | None:
+    """fsspec options for a Zarr store at `path`: a `file://` store makes its folders as it writes."""
+    return {"auto_mkdir": True} if str(path).startswith("file://") else None
+
+
 def detect_format(path: str) -> str:
     """'zarr' or 'hdf5', from what is at `path` or, for a new store, from its suffix."""
     p = str(path)
@@ -70,7 +75,9 @@ class ZarrBackend(Backend):
 
         self.path = path
         try:
-            self.group = zarr.open_group(store=str(path), mode=mode, zarr_format=3)
+            self.group = zarr.open_group(
+                store=str(path), mode=mode, zarr_format=3, storage_options=storage_options(path)
+            )
         except Exception as e:  # zarr raises several types for "not a group"
             raise StoreError(f"{path}: not a readable Zarr v3 store ({type(e).__name__}: {e})") from e
 

@@ -1,13 +1,15 @@
-"""Generating a store: shard-aligned tasks, run in-process or on a pool of worker processes.
+"""Generating a store: shard-aligned tasks, run in-process, on a pool of worker processes or on a
+Dask cluster (odms_data.distributed, imported only when a scheduler is given).
 
 A task makes the examples of one shard, writes their masks (Zarr: straight into the shard;
 HDF5: returns deflated chunks for the parent to store) and returns the small per-frame and
 per-example arrays plus the example digests, which the parent streams, in order, into the
-store digest. Nothing depends on the number of workers or the shard size.
+store digest. Nothing depends on the executor, the number of workers or the shard size.
 """
 
 from __future__ import annotations
 
+import os
 import zlib
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ProcessPoolExecutor
@@ -16,7 +18,7 @@ from multiprocessing import get_context
 
 import numpy as np
 
-from .backends import GZIP_LEVEL
+from .backends import GZIP_LEVEL, storage_options
 from .digest import StoreDigest, example_digest, frame_digests
 from .errors import InputError
 from .format import StoreAttrs
@@ -86,10 +88,7 @@ def run_shard(task: ShardTask) -> ShardResult:
         digests.append(example_digest(ids[e], SOURCE, spec.z[0], fd))
     result = ShardResult(task.start, task.stop, z, stats, digests)
     if task.fmt == "zarr":
-        import zarr
-
-        masks = zarr.open_array(store=task.path, path="masks", mode="r+")
-        masks.with_config({"write_empty_chunks": True})[task.start * n : task.stop * n] = packed
+        _write_shard(task.path, task.start * n, packed)
     else:
         result.deflated_chunks = [
             zlib.compress(packed[e * n : (e + 1) * n].tobytes(), GZIP_LEVEL) for e in range(k)
@@ -97,7 +96,30 @@ def run_shard(task: ShardTask) -> ShardResult:
     return result
 
 
-def _run_tasks(tasks: list[ShardTask], workers: int) -> Iterator[ShardResult]:
+def _write_shard(path: str, start: int, packed: np.ndarray) -> None:
+    """Write the whole shard of `masks` at frame `start` afresh: delete what an interrupted earlier
+    attempt may have left first, since zarr reads an existing shard back to merge into it."""
+    import zarr
+    from zarr.core.sync import sync
+
+    masks = zarr.open_array(store=path, path="masks", mode="r+", storage_options=storage_options(path))
+    key = masks.metadata.encode_chunk_key((start // masks.shards[0], 0, 0))
+    sync(masks.store.delete(f"{masks.path}/{key}"))
+    masks.with_config({"write_empty_chunks": True})[start : start + len(packed)] = packed
+
+
+Progress = Callable[[int], None]
+
+
+def _run_tasks(tasks: list[ShardTask], workers: int, progress: Progress | None) -> Iterator[ShardResult]:
+    """Results in task order, each counted by `progress` as it comes."""
+    for r in _run_local(tasks, workers):
+        if progress:
+            progress(r.stop - r.start)
+        yield r
+
+
+def _run_local(tasks: list[ShardTask], workers: int) -> Iterator[ShardResult]:
     """Results in task order; at most 2 * workers tasks in flight."""
     if workers <= 1:
         yield from map(run_shard, tasks)
@@ -129,9 +151,14 @@ def generate(
     workers: int = 1,
     examples_per_shard: int = DEFAULT_EXAMPLES_PER_SHARD,
     overwrite: bool = False,
-    progress: Callable[[int], None] | None = None,
+    progress: Progress | None = None,
+    scheduler: str | None = None,
 ) -> StoreAttrs:
-    """Generate `count` examples into a new store at `path`; returns its attributes."""
+    """Generate `count` examples into a new store at `path`; returns its attributes.
+
+    With `scheduler` (a Dask scheduler address) the shards run on that cluster instead of
+    `workers` local processes; the store is the same.
+    """
     if count < 1:
         raise InputError(f"count must be at least 1, got {count}")
     if seed < 0:
@@ -148,12 +175,19 @@ def generate(
     )
     with StoreWriter(path, fmt, overwrite=overwrite) as w:
         w.create(layout)
+        target = os.path.abspath(w.partial) if w.local else w.partial  # workers may have another cwd
         tasks = [
-            ShardTask(w.partial, w.format, params, seed, split, count, s, min(s + eps, count))
+            ShardTask(target, w.format, params, seed, split, count, s, min(s + eps, count))
             for s in range(0, count, eps)
         ]
+        if scheduler is None:
+            results = _run_tasks(tasks, workers, progress)
+        else:
+            from .distributed import run_tasks
+
+            results = run_tasks(tasks, scheduler, progress)
         digest = StoreDigest(H, W, count)
-        for r in _run_tasks(tasks, workers):
+        for r in results:
             f0 = r.start * n
             w.write_frames(f0, r.z, r.z, r.stats)
             frame_index = np.arange(f0, r.stop * n).reshape(-1, n)
@@ -164,8 +198,6 @@ def generate(
             for e, chunk in enumerate(r.deflated_chunks):
                 w.write_mask_chunk(f0 + e * n, chunk)
             digest.update(r.example_digests)
-            if progress:
-                progress(r.stop - r.start)
         attrs = StoreAttrs(
             split=split, domain="generated", image_size=(H, W),
             counts={"examples": count, "frames": count * n, "labelled": count},

@@ -75,6 +75,8 @@ class StoreWriter:
                 self._release_lock()
                 raise StoreExistsError(f"{self.path}: already exists; pass --overwrite to replace it")
             _remove(Path(self.partial))
+        elif not self.overwrite and _url_exists(self.path):
+            raise StoreExistsError(f"{self.path}: already exists; pass --overwrite to replace it")
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:
@@ -188,6 +190,13 @@ class StoreWriter:
                 partial.rename(target)
         self._committed = True
         return self.path
+
+
+def _url_exists(url: str) -> bool:
+    from fsspec.core import url_to_fs
+
+    fs, root = url_to_fs(url)
+    return fs.exists(root)
 
 
 def _fit(matrix: np.ndarray, width: int, what: str) -> np.ndarray:

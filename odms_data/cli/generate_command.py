@@ -51,15 +51,23 @@ def _parse_param(values: tuple[str, ...]) -> dict:
               default=DEFAULT_EXAMPLES_PER_SHARD, show_default=True,
               help="Examples per shard (one task each); does not change the content.")
 @click.option("--overwrite", is_flag=True, help="Replace an existing store.")
-def generate(split_name, count, preset, seed, n_obs, params, store_split, output, fmt, workers,
-             examples_per_shard, overwrite):
+@click.option("--scheduler", metavar="ADDRESS", default=None,
+              help="Run the shards on the Dask cluster of this scheduler (e.g. tcp://host:8786) "
+                   "instead of local --workers; needs the dask extra. The output must be a path "
+                   "every worker sees, or a URL such as s3://bucket/train.zarr.")
+@click.pass_context
+def generate(ctx, split_name, count, preset, seed, n_obs, params, store_split, output, fmt, workers,
+             examples_per_shard, overwrite, scheduler):
     """Generate simulated ODMS examples into a store.
 
     \b
     Examples:
       odms-data generate --split sim-val
       odms-data generate -n 100000 --preset perturb --seed 7 -o train.zarr --workers 8
+      odms-data generate -n 2560000 --scheduler tcp://head:8786 -o s3://lab/odms/train.zarr
     """
+    if scheduler and ctx.get_parameter_source("workers") != click.core.ParameterSource.DEFAULT:
+        raise InputError("--workers and --scheduler exclude each other; the cluster has its own workers")
     overrides = _parse_param(params)
     manifest = None
     if split_name:
@@ -86,7 +94,7 @@ def generate(split_name, count, preset, seed, n_obs, params, store_split, output
         attrs = generate_store(
             output, count, gen_params, seed or 0, split=store_split, preset=preset, fmt=fmt,
             workers=workers, examples_per_shard=examples_per_shard, overwrite=overwrite,
-            progress=update,
+            progress=update, scheduler=scheduler,
         )
     click.echo(f"wrote {output}: {count} examples, digest {attrs.digest}")
     if manifest is not None:

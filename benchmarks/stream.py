@@ -1,0 +1,119 @@
+"""Examples/s of the loaders: the streaming generator at 112x112 and 480x640 (n = 10) in-process
+and with 1 and 2 worker processes, and a store read through each loader.
+
+    python benchmarks/stream.py [--store sim-val.zarr] [--examples 4096] [--batch-size 256]
+
+"112x112" streams masks equal to a store's shrunk to 112x112 (the default); "direct" draws them
+straight at 112x112 (GeneratedExamples(direct=True)). The baseline, measured in the same run, is
+the naive streaming path: draw each mask at 480x640 with generator.render_masks and shrink it to
+112x112. Timing starts when the first batch arrives, so worker start-up is left out; the first
+batch is not counted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import os
+import resource
+import tempfile
+import time
+from collections.abc import Iterable
+from pathlib import Path
+
+from odms_data.generate import generate
+from odms_data.generator import GeneratorParams, render_masks, sample_example
+from odms_data.loaders import Transform, store_batches, stream_batches
+from odms_data.loaders.sources import collate
+
+PARAMS = GeneratorParams(n_obs=10)
+
+
+def cpu_seconds() -> float:
+    """CPU time of this process and its finished children (worker processes)."""
+    me, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
+
+
+def rate(batches: Iterable, batch_size: int) -> tuple[float, float]:
+    """Examples per wall second after the first batch, and per CPU second over the whole run
+    (start-up included): on a shared machine the second says what the cores could do."""
+    c0 = cpu_seconds()
+    it = iter(batches)
+    next(it)
+    t0, count = time.perf_counter(), 0
+    for _ in it:
+        count += batch_size
+    wall = time.perf_counter() - t0
+    del it  # ends the workers, so their CPU time is counted
+    return count / wall, (count + batch_size) / (cpu_seconds() - c0)
+
+
+def naive(batch_size: int, n_batches: int):
+    """Full-size masks shrunk to 112x112: the path streaming at training size avoids."""
+    t = Transform()
+    for b in range(n_batches):
+        out = []
+        for i in range(b * batch_size, (b + 1) * batch_size):
+            spec = sample_example(PARAMS, 0, i)
+            out.append(t(render_masks(spec, PARAMS), spec.z, spec.z[0]))
+        yield collate(out)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--store", help="store to read (default: 2,048 generated examples in a temp dir)")
+    ap.add_argument("--examples", type=int, default=4096, help="examples per streaming measurement")
+    ap.add_argument("--batch-size", type=int, default=256)
+    args = ap.parse_args()
+    print(f"{len(os.sched_getaffinity(0))} CPUs available, batch size {args.batch_size}, n = {PARAMS.n_obs}")
+    B = args.batch_size
+    nb = max(2, args.examples // B)
+    results: list[tuple[str, float]] = []
+    print(f"{'':<48} {'examples/s':>10} {'vs baseline':>11} {'examples/CPU-s':>15}")
+
+    def record(name: str, value: tuple[float, float]) -> None:
+        results.append((name, value[0]))
+        print(f"{name:<48} {value[0]:10.0f} {value[0] / results[0][1]:10.1f}x {value[1]:15.0f}", flush=True)
+
+    record("baseline: 480x640 drawn, shrunk to 112x112", rate(naive(B, max(2, nb // 4)), B))
+    for size, direct, label in (((112, 112), False, "112x112"), ((112, 112), True, "112x112 direct"),
+                                (None, False, "480x640")):
+        t = Transform(size=size)
+        b = B if size else 16  # a batch of 480x640 masks is 3 MB an example
+        for workers in (0, 1, 2):
+            batches = stream_batches(b, nb * B // b // (1 if size else 4), params=PARAMS, transform=t,
+                                     direct=direct, workers=workers)
+            record(f"numpy stream {label}, workers={workers}", rate(batches, b))
+    has_torch = importlib.util.find_spec("torch") is not None
+    has_tf = importlib.util.find_spec("tensorflow") is not None
+    if has_torch:
+        from torch.utils.data import DataLoader
+
+        from odms_data.loaders.torch import StoreDataset, StreamDataset
+
+        for workers in (1, 2):
+            ds = StreamDataset(B, nb, params=PARAMS)
+            record(f"torch stream 112x112, workers={workers}",
+                   rate(DataLoader(ds, batch_size=None, num_workers=workers), B))
+
+    with tempfile.TemporaryDirectory() as tmp:
+        store = args.store
+        if store is None:
+            store = str(Path(tmp) / "bench.zarr")
+            generate(store, 2048, PARAMS, seed=1, workers=2)
+        for workers in (0, 2):
+            record(f"numpy store -> 112x112, workers={workers}",
+                   rate(store_batches(store, B, workers=workers), B))
+        if has_torch:
+            for workers in (0, 2):
+                record(f"torch store -> 112x112, workers={workers}",
+                       rate(DataLoader(StoreDataset(store), batch_size=B, num_workers=workers), B))
+        if has_tf:
+            from odms_data.loaders.tf import from_store
+
+            record("tf store -> 112x112, workers=2", rate(from_store(store, B, workers=2), B))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,117 @@
+"""Running generation's shard tasks on a Dask cluster: `generate(..., scheduler=ADDRESS)`.
+
+The tasks are the ShardTasks of a local run, executed by the same `run_shard`, so the store and
+its digest do not depend on the cluster. Each task writes its whole Zarr shard of `masks` in one
+store write; a task that raises is retried by Dask (`RETRIES`), one whose worker dies is rerun
+elsewhere (the scheduler's `allowed-failures`), and a rerun rewrites the whole shard. Results come
+back as tasks complete (that is what progress counts) and are handed to the parent in task order,
+with at most two tasks per worker thread (recounted as the cluster scales) ahead of the oldest
+unfinished one; the parent writes the small arrays, feeds the digest and marks the store complete
+after the last shard.
+
+Only this module imports Dask, and only `generate` with a scheduler imports this module.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Iterator
+from typing import Any
+
+from .errors import InputError, StoreError
+from .generate import ShardResult, ShardTask, run_shard
+
+RETRIES = 3  # reruns of a task that raised
+CONNECT_TIMEOUT_S = 30
+WORKER_WAIT_S = 60  # how long to wait for a first worker to join the scheduler
+
+
+def _environment() -> dict[str, Any]:
+    """What must match between this process and every worker (run on each worker)."""
+    import numpy
+    import zarr
+
+    import odms_data
+
+    return {
+        "pid": os.getpid(),
+        "versions": {"odms-data": odms_data.__version__, "numpy": numpy.__version__,
+                     "zarr": zarr.__version__},
+    }
+
+
+def connect(address: str):
+    """A `distributed.Client` for the scheduler at `address`, with at least one worker."""
+    try:
+        from distributed import Client
+    except ImportError:
+        raise InputError("--scheduler needs Dask: pip install 'odms-data[dask]'") from None
+    try:
+        client = Client(address, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
+    except (OSError, TimeoutError, ValueError) as e:
+        raise InputError(f"scheduler {address}: cannot connect ({e})") from None
+    try:
+        client.wait_for_workers(1, timeout=WORKER_WAIT_S)
+    except (OSError, TimeoutError) as e:
+        client.close()
+        raise InputError(f"scheduler {address}: no worker joined within {WORKER_WAIT_S} s") from e
+    return client
+
+
+def check_workers(client, address: str, path: str) -> None:
+    """Refuse workers with other versions, and `memory://` stores that workers cannot see."""
+    here = _environment()
+    for worker, there in client.run(_environment).items():
+        if there["versions"] != here["versions"]:
+            raise InputError(
+                f"scheduler {address}: worker {worker} runs {there['versions']}, this process "
+                f"{here['versions']}; install the same versions on the workers"
+            )
+        if path.startswith("memory://") and there["pid"] != here["pid"]:
+            raise InputError(
+                f"{path}: a memory:// store lives in this process, but worker {worker} of {address} is "
+                "another process; write to file:// or s3://, or use an in-process (threads) cluster"
+            )
+
+
+def run_tasks(
+    tasks: list[ShardTask], address: str, progress: Callable[[int], None] | None = None
+) -> Iterator[ShardResult]:
+    """Results of `tasks` run on the cluster at `address`, in task order."""
+    from distributed import as_completed
+
+    with connect(address) as client:
+        check_workers(client, address, tasks[0].path)
+        pending = as_completed(loop=client.loop)
+        index: dict[str, int] = {}  # future key -> task index
+        finished: dict[int, ShardResult] = {}
+        submitted = head = 0
+
+        def top_up() -> None:
+            nonlocal submitted
+            ahead = max(4, 2 * sum(client.nthreads().values()))  # follows a cluster that scales
+            while submitted < len(tasks) and submitted - head < ahead:
+                future = client.submit(run_shard, tasks[submitted], retries=RETRIES, pure=False)
+                index[future.key] = submitted
+                pending.add(future)
+                submitted += 1
+
+        top_up()
+        for future in pending:
+            i = index.pop(future.key)
+            try:
+                result = future.result()
+            except Exception as e:
+                t = tasks[i]
+                raise StoreError(
+                    f"{t.path}: shard of examples {t.start}-{t.stop - 1} failed on {address} "
+                    f"after retries ({type(e).__name__}: {e})"
+                ) from e
+            if progress:
+                progress(result.stop - result.start)
+            finished[i] = result
+            if head in finished:
+                while head in finished:
+                    yield finished.pop(head)
+                    head += 1
+                top_up()

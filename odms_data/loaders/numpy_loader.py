@@ -1,0 +1,133 @@
+"""Framework-free batch iterators of NumPy arrays (what JAX users hand to `jax.device_put`).
+
+    from odms_data.loaders import numpy_loader
+    for batch in numpy_loader.stream_batches(512, 5000, seed=1, workers=2):
+        x = jax.device_put(batch["masks"])  # (512, 10, 112, 112) float32
+
+Batches are made in order, by the calling process or by `workers` spawned processes with at
+most 2 * workers batches in flight; the content never depends on the number of workers. Workers
+hand batches over in shared memory: pickled through a pipe, a batch of 256 examples (32 MB)
+took about 0.4 s, more than making it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor
+from multiprocessing import get_context
+from multiprocessing.shared_memory import SharedMemory
+
+import numpy as np
+
+from ..errors import InputError
+from ..generator import GeneratorParams
+from .sources import STANDARD, GeneratedExamples, StoreExamples, store_order, stream_indices
+from .transforms import PAPER_TRANSFORM, Transform
+
+Layout = dict[str, tuple[tuple[int, ...], str, int]]  # key -> shape, dtype, byte offset
+
+
+def _shared_batch(source: StoreExamples | GeneratedExamples, indices: Sequence[int]) -> tuple[str, Layout]:
+    """Make a batch in a worker and leave it in a new shared memory block for the parent."""
+    batch = source.batch(indices)
+    shm = SharedMemory(create=True, size=max(1, sum(a.nbytes for a in batch.values())))
+    layout, offset = {}, 0
+    for key, a in batch.items():
+        np.ndarray(a.shape, a.dtype, buffer=shm.buf, offset=offset)[...] = a
+        layout[key] = (a.shape, a.dtype.str, offset)
+        offset += a.nbytes
+    shm.close()
+    return shm.name, layout
+
+
+def _take_shared(name: str, layout: Layout) -> dict[str, np.ndarray]:
+    """Copy a batch out of its shared memory block and free the block."""
+    shm = SharedMemory(name=name)
+    try:
+        return {k: np.ndarray(shape, np.dtype(dt), buffer=shm.buf, offset=off).copy()
+                for k, (shape, dt, off) in layout.items()}
+    finally:
+        shm.close()
+        shm.unlink()
+
+
+class Batches:
+    """An iterable over the batches of `source` (StoreExamples or GeneratedExamples) whose
+    example indices are `plan`; iterate it again to get the same batches again."""
+
+    def __init__(
+        self, source: StoreExamples | GeneratedExamples, plan: Sequence[Sequence[int]], workers: int = 0
+    ) -> None:
+        if workers < 0:
+            raise InputError(f"workers must be >= 0, got {workers}")
+        self.source, self.plan, self.workers = source, plan, workers
+
+    def __len__(self) -> int:
+        return len(self.plan)
+
+    def __iter__(self) -> Iterator[dict[str, np.ndarray]]:
+        if self.workers == 0:
+            for indices in self.plan:
+                yield self.source.batch(indices)
+            return
+        # spawn, not fork: forking a process that has started JAX or TensorFlow threads is unsafe
+        with ProcessPoolExecutor(self.workers, mp_context=get_context("spawn")) as pool:
+            todo = iter(self.plan)
+            pending: list[Future] = [pool.submit(_shared_batch, self.source, b) for _, b in zip(
+                range(2 * self.workers), todo, strict=False)]
+            try:
+                while pending:
+                    batch = _take_shared(*pending.pop(0).result())
+                    nxt = next(todo, None)
+                    if nxt is not None:
+                        pending.append(pool.submit(_shared_batch, self.source, nxt))
+                    yield batch
+            finally:  # stopped early: free the blocks of batches made but not taken
+                for f in pending:
+                    if not f.cancel() and f.exception() is None:
+                        _take_shared(*f.result())
+
+
+def _check_batch_size(batch_size: int) -> None:
+    if batch_size < 1:
+        raise InputError(f"batch size must be at least 1, got {batch_size}")
+
+
+def store_batches(
+    path: str,
+    batch_size: int,
+    *,
+    transform: Transform = PAPER_TRANSFORM,
+    shuffle: bool = False,
+    seed: int = 0,
+    epoch: int = 0,
+    drop_last: bool = False,
+    workers: int = 0,
+) -> Batches:
+    """Batches of the store at `path`, in row order or shuffled by (seed, epoch)."""
+    _check_batch_size(batch_size)
+    source = StoreExamples(path, transform)
+    order = store_order(len(source), shuffle, seed, epoch)
+    stop = len(order) - len(order) % batch_size if drop_last else len(order)
+    plan = [order[i : i + batch_size] for i in range(0, stop, batch_size)]
+    return Batches(source, plan, workers)
+
+
+def stream_batches(
+    batch_size: int,
+    batches: int,
+    *,
+    params: GeneratorParams = STANDARD,
+    seed: int = 0,
+    epoch: int = 0,
+    transform: Transform = PAPER_TRANSFORM,
+    direct: bool = False,
+    workers: int = 0,
+) -> Batches:
+    """`batches` batches of freshly generated examples; epoch e uses generator indices
+    [e * batches * batch_size, (e + 1) * batches * batch_size). `direct`: see GeneratedExamples."""
+    _check_batch_size(batch_size)
+    if batches < 1 or epoch < 0:
+        raise InputError(f"need batches >= 1 and epoch >= 0, got batches={batches}, epoch={epoch}")
+    source = GeneratedExamples(params, seed, transform, direct)
+    return Batches(source, [stream_indices(b, batch_size, batches, epoch) for b in range(batches)], workers)

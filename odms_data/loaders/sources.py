@@ -1,0 +1,148 @@
+"""Where examples come from: a store or the generator, as dicts of NumPy network inputs.
+
+Both are plain picklable objects, so they travel to worker processes (PyTorch DataLoader
+workers, the NumPy loader's pool). A store is opened lazily in each process: Zarr and HDF5
+handles are not safe to share across fork, so a handle opened in another process is dropped
+and the store reopened on first use.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..errors import InputError
+from ..generator import PRESETS, GeneratorParams, sample_example
+from ..masks import unpack
+from ..store import Store, open_store
+from .render import render_masks, render_shrunk, shrink_boxes
+from .transforms import PAPER_TRANSFORM, Transform
+
+STANDARD = PRESETS["standard"]
+
+
+def collate(examples: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """Stack examples' arrays along a new first axis."""
+    out = {}
+    for key in examples[0]:
+        try:
+            out[key] = np.stack([e[key] for e in examples])
+        except ValueError:
+            shapes = sorted({np.shape(e[key]) for e in examples})
+            raise InputError(
+                f"cannot batch '{key}': examples give shapes {shapes}; set the transform's n_obs "
+                "so every example has as many observations"
+            ) from None
+    return out
+
+
+class StoreExamples:
+    """The examples of the store at `path`, transformed; `example(i)` by row."""
+
+    def __init__(self, path: str, transform: Transform = PAPER_TRANSFORM) -> None:
+        self.path, self.transform = str(path), transform
+        self._store: Store | None = None
+        self._pid: int | None = None
+        self._len = len(self.store)
+
+    @property
+    def store(self) -> Store:
+        if self._store is None or self._pid != os.getpid():
+            self._store, self._pid = open_store(self.path), os.getpid()
+        return self._store
+
+    def __getstate__(self) -> dict:
+        return {**self.__dict__, "_store": None, "_pid": None}
+
+    def __len__(self) -> int:
+        return self._len
+
+    def _chosen(self, i: int) -> np.ndarray:
+        """Frame rows of the observations of example i the transform uses."""
+        if not 0 <= i < self._len:
+            raise InputError(f"{self.path}: example row {i} is out of range 0..{self._len - 1}")
+        frames = self.store.frames_of(i)
+        try:
+            return frames[self.transform.select(len(frames))]
+        except InputError as e:
+            raise InputError(f"{self.path}: example {self.store.example_ids[i]}: {e}") from None
+
+    def _inputs(self, i: int, chosen: np.ndarray, masks: np.ndarray) -> dict[str, np.ndarray]:
+        s, t = self.store, self.transform
+        if t.size is not None:  # shrink only the stored boxes: same pixels, a fraction of the work
+            masks = shrink_boxes(masks, s.bbox[chosen], t.size, t.coverage)
+        out = t(masks, s.z[chosen], float(s.d1[i]))
+        out["index"] = np.int64(i)
+        return out
+
+    def example(self, i: int) -> dict[str, np.ndarray]:
+        chosen = self._chosen(i)
+        return self._inputs(i, chosen, self.store.read_masks(chosen))
+
+    def batch(self, indices: Sequence[int]) -> dict[str, np.ndarray]:
+        return collate(self.examples(indices))
+
+    def examples(self, indices: Sequence[int]) -> list[dict[str, np.ndarray]]:
+        """Examples by row; the packed masks of nearby rows are read in one slice."""
+        rows = [int(i) for i in indices]
+        chosen = [self._chosen(i) for i in rows]
+        flat = np.concatenate(chosen)
+        lo, hi = int(flat.min()), int(flat.max()) + 1
+        pairs = zip(rows, chosen, strict=True)
+        if hi - lo > 4 * len(flat):
+            return [self._inputs(i, c, self.store.read_masks(c)) for i, c in pairs]
+        packed, width = self.store.read_packed(lo, hi), self.store.width
+        return [self._inputs(i, c, unpack(packed[c - lo], width)) for i, c in pairs]
+
+
+class GeneratedExamples:
+    """Freshly generated examples of (params, seed); `example(index)` depends only on
+    (params, seed, index, transform, direct).
+
+    By default the masks are exactly those of a generated store read through the same transform
+    (full-size masks shrunk with INTER_AREA), drawn without a full-size frame (render.render_shrunk).
+    `direct=True` draws the contour straight at the transform's size instead (the generator's own
+    small-size rendering): faster, but its masks are larger; see schemas/LOADERS.md.
+    """
+
+    def __init__(
+        self,
+        params: GeneratorParams = STANDARD,
+        seed: int = 0,
+        transform: Transform = PAPER_TRANSFORM,
+        direct: bool = False,
+    ) -> None:
+        if seed < 0:
+            raise InputError(f"seed must be a non-negative integer, got {seed}")
+        self.params, self.seed, self.transform, self.direct = params, seed, transform, direct
+        self._chosen = transform.select(params.n_obs)
+
+    def example(self, index: int) -> dict[str, np.ndarray]:
+        spec = sample_example(self.params, self.seed, index)
+        size = self.transform.size
+        if size is None or self.direct:
+            masks = render_masks(spec, self.params, size, self._chosen)
+        else:
+            masks = render_shrunk(spec, self.params, size, self._chosen, self.transform.coverage)
+        out = self.transform(masks, spec.z[self._chosen], float(spec.z[0]))
+        out["index"] = np.int64(index)
+        return out
+
+    def batch(self, indices: Sequence[int]) -> dict[str, np.ndarray]:
+        return collate([self.example(int(i)) for i in indices])
+
+
+def stream_indices(batch: int, batch_size: int, batches_per_epoch: int, epoch: int) -> range:
+    """Generator indices of batch `batch` of `epoch`: epochs and batches take consecutive,
+    disjoint blocks of the index space, so no example repeats across batches, workers or epochs."""
+    start = (epoch * batches_per_epoch + batch) * batch_size
+    return range(start, start + batch_size)
+
+
+def store_order(n: int, shuffle: bool, seed: int, epoch: int) -> np.ndarray:
+    """Rows of a store in the order of `epoch`: a permutation drawn from (seed, epoch) or 0..n-1."""
+    if not shuffle:
+        return np.arange(n)
+    return np.random.default_rng([seed, epoch]).permutation(n)

@@ -1,0 +1,68 @@
+"""TensorFlow: `tf.data.Dataset`s of batches from a store or from the generator.
+
+    from odms_data.loaders.tf import from_generator
+    ds = from_generator(512, 5000, seed=1, workers=2).prefetch(2)
+    for batch in ds: ...  # dict of tensors, batch["masks"]: (512, 10, 112, 112) uint8
+
+Both wrap `numpy_loader`'s batch iterators (same arguments, same batches), whose `workers`
+processes make batches in parallel outside TensorFlow's threads.
+"""
+
+from __future__ import annotations
+
+from ..generator import GeneratorParams
+from .numpy_loader import Batches, store_batches, stream_batches
+from .sources import STANDARD
+from .transforms import PAPER_TRANSFORM, Transform
+
+try:
+    import tensorflow as tf
+except ImportError as e:  # pragma: no cover - depends on the environment
+    raise ImportError(
+        "odms_data.loaders.tf needs TensorFlow: pip install 'odms-data[tf]' (see README.md)"
+    ) from e
+
+
+def dataset(batches: Batches) -> tf.data.Dataset:
+    """A dataset yielding `batches` (each iteration makes them again, identically)."""
+    first = batches.source.example(int(batches.plan[0][0]))
+    signature = {
+        k: tf.TensorSpec((None, *v.shape), tf.as_dtype(v.dtype)) for k, v in first.items()
+    }
+    return tf.data.Dataset.from_generator(lambda: iter(batches), output_signature=signature)
+
+
+def from_store(
+    path: str,
+    batch_size: int,
+    *,
+    transform: Transform = PAPER_TRANSFORM,
+    shuffle: bool = False,
+    seed: int = 0,
+    epoch: int = 0,
+    drop_last: bool = False,
+    workers: int = 0,
+) -> tf.data.Dataset:
+    """Batches of the store at `path` (see numpy_loader.store_batches)."""
+    return dataset(store_batches(
+        path, batch_size, transform=transform, shuffle=shuffle, seed=seed, epoch=epoch,
+        drop_last=drop_last, workers=workers,
+    ))
+
+
+def from_generator(
+    batch_size: int,
+    batches: int,
+    *,
+    params: GeneratorParams = STANDARD,
+    seed: int = 0,
+    epoch: int = 0,
+    transform: Transform = PAPER_TRANSFORM,
+    direct: bool = False,
+    workers: int = 0,
+) -> tf.data.Dataset:
+    """Freshly generated batches (see numpy_loader.stream_batches)."""
+    return dataset(stream_batches(
+        batch_size, batches, params=params, seed=seed, epoch=epoch, transform=transform,
+        direct=direct, workers=workers,
+    ))

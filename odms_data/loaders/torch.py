@@ -1,0 +1,95 @@
+"""PyTorch datasets: a map-style one over a store and an iterable one streaming generated batches.
+
+    from torch.utils.data import DataLoader
+    from odms_data.loaders.torch import StoreDataset, StreamDataset
+
+    val = DataLoader(StoreDataset("sim-val.zarr"), batch_size=512, num_workers=2)
+    train = StreamDataset(batch_size=512, batches_per_epoch=5000, seed=1)
+    loader = DataLoader(train, batch_size=None, num_workers=2)  # the dataset makes whole batches
+    for epoch in range(epochs):
+        train.set_epoch(epoch)
+        for batch in loader: ...
+
+StreamDataset: batch b of epoch e holds generator indices ((e * batches_per_epoch + b) * batch_size
+...+ batch_size), and worker w of W makes batches b = w, w + W, ...; DataLoader hands them out in
+that round-robin order, so the batch sequence depends only on (params, seed, transform, batch
+size) — not on the number of workers — and no example appears twice in or across epochs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InputError
+from ..generator import GeneratorParams
+from .sources import STANDARD, GeneratedExamples, StoreExamples, stream_indices
+from .transforms import PAPER_TRANSFORM, Transform
+
+try:
+    import torch
+    from torch.utils.data import Dataset, IterableDataset, get_worker_info
+except ImportError as e:  # pragma: no cover - depends on the environment
+    raise ImportError(
+        "odms_data.loaders.torch needs PyTorch: pip install 'odms-data[torch]' (see README.md)"
+    ) from e
+
+
+def to_tensors(arrays: dict[str, np.ndarray]) -> dict[str, torch.Tensor]:
+    return {k: torch.from_numpy(np.asarray(v)) for k, v in arrays.items()}
+
+
+class StoreDataset(Dataset):
+    """Example i of the store at `path` as a dict of tensors; the store is opened in each worker
+    on first use. Shuffle reproducibly with DataLoader(..., shuffle=True, generator=torch.Generator()
+    .manual_seed(seed))."""
+
+    def __init__(self, path: str, transform: Transform = PAPER_TRANSFORM) -> None:
+        self.examples = StoreExamples(path, transform)
+
+    def __len__(self) -> int:
+        return len(self.examples)
+
+    def __getitem__(self, i: int) -> dict[str, torch.Tensor]:
+        return to_tensors(self.examples.example(int(i)))
+
+    def __getitems__(self, indices: list[int]) -> list[dict[str, torch.Tensor]]:
+        """A DataLoader batch at once: nearby rows are read from the store in one slice."""
+        return [to_tensors(e) for e in self.examples.examples(indices)]
+
+
+class StreamDataset(IterableDataset):
+    """`batches_per_epoch` batches of `batch_size` freshly generated examples per epoch; use with
+    DataLoader(dataset, batch_size=None, num_workers=...) and call set_epoch(e) before each epoch.
+    `direct`: see sources.GeneratedExamples."""
+
+    def __init__(
+        self,
+        batch_size: int,
+        batches_per_epoch: int,
+        *,
+        params: GeneratorParams = STANDARD,
+        seed: int = 0,
+        transform: Transform = PAPER_TRANSFORM,
+        direct: bool = False,
+    ) -> None:
+        if batch_size < 1 or batches_per_epoch < 1:
+            raise InputError(
+                f"need batch_size >= 1 and batches_per_epoch >= 1, got {batch_size}, {batches_per_epoch}"
+            )
+        self.examples = GeneratedExamples(params, seed, transform, direct)
+        self.batch_size, self.batches_per_epoch, self.epoch = batch_size, batches_per_epoch, 0
+
+    def set_epoch(self, epoch: int) -> None:
+        if epoch < 0:
+            raise InputError(f"epoch must be >= 0, got {epoch}")
+        self.epoch = epoch
+
+    def __len__(self) -> int:
+        return self.batches_per_epoch
+
+    def __iter__(self):
+        info = get_worker_info()
+        worker, workers = (info.id, info.num_workers) if info else (0, 1)
+        for b in range(worker, self.batches_per_epoch, workers):
+            indices = stream_indices(b, self.batch_size, self.batches_per_epoch, self.epoch)
+            yield to_tensors(self.examples.batch(indices))

@@ -1,0 +1,121 @@
+"""The network inputs of the paper (Griffin & Corso, ECCV 2020, section 4), framework-free.
+
+One example becomes a dict of NumPy arrays:
+
+- `masks` (n_obs, h, w): `n_obs` evenly spaced observations, `numpy.linspace(0, n-1, n_obs)`
+  truncated to integers, each resized to `size` with cv2 INTER_AREA. By default uint8 0/1 (a pixel
+  is 1 when the object covers about half of it or more: INTER_AREA's mean, rounded), a quarter of
+  the bytes of float32, to be made float on the accelerator; with `coverage=True`, float32
+  fractions of each pixel covered.
+- `dz` (n_obs,) float32: z_i - z_1, m.
+- `zbar` (n_obs - 2,) float32: (z_i - z_1) / (z_n - z_1) for 1 < i < n.
+- labels, float32 scalars: `d1` (m), `d1_norm` = d1 / (z_n - z_1) and `scale` = d1 / d_n, the
+  relative scale, with d_n = d1 + z_n - z_1 (a still object, the camera moving along its axis).
+- `radial` (1, h, w) float32 when asked for: 1 at the image centre falling linearly with the
+  distance from it to 0 at the corner pixels.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import cv2
+import numpy as np
+
+from ..errors import InputError
+
+cv2.setNumThreads(1)
+
+PAPER_SIZE = (112, 112)
+LABELS = ("d1", "d1_norm", "scale")
+
+
+def observation_indices(n: int, n_obs: int) -> np.ndarray:
+    """Indices of `n_obs` evenly spaced observations out of `n`, first and last included."""
+    if not 2 <= n_obs <= n:
+        raise InputError(f"need 2 <= n_obs <= n, got n_obs={n_obs} for an example of {n} frames")
+    return np.linspace(0, n - 1, n_obs).astype(np.int64)
+
+
+def resize_masks(masks: np.ndarray, size: tuple[int, int], coverage: bool = False) -> np.ndarray:
+    """(k, H, W) binary masks to (k, h, w) with cv2 INTER_AREA: uint8 0/1 (the covered fraction
+    rounded) or, with `coverage`, float32 fractions."""
+    h, w = size
+    k, H, W = masks.shape
+    dtype = np.float32 if coverage else np.uint8
+    m = masks.astype(dtype, copy=False)
+    if (H, W) == (h, w):
+        return m
+    out = np.empty((k, h, w), dtype)
+    for i in range(k):
+        out[i] = cv2.resize(m[i], (w, h), interpolation=cv2.INTER_AREA)
+    return out
+
+
+def distances(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """dz = z_i - z_1 (all i) and zbar = (z_i - z_1) / (z_n - z_1) (1 < i < n)."""
+    z = np.asarray(z, np.float64)
+    dz = z - z[0]
+    return dz.astype(np.float32), (dz[1:-1] / dz[-1]).astype(np.float32)
+
+
+def labels(d1: float, z: np.ndarray) -> dict[str, np.float32]:
+    """The paper's three labels of an example with label d1 and camera positions z."""
+    span = float(z[-1] - z[0])
+    return {
+        "d1": np.float32(d1),
+        "d1_norm": np.float32(d1 / span),
+        "scale": np.float32(d1 / (d1 + span)),
+    }
+
+
+def radial_image(size: tuple[int, int]) -> np.ndarray:
+    """(h, w) float32: 1 at the centre, falling linearly with the distance to 0 at the corners."""
+    h, w = size
+    y = np.arange(h) - (h - 1) / 2
+    x = np.arange(w) - (w - 1) / 2
+    r = np.hypot(y[:, None], x[None, :])
+    corner = r.max()
+    return (1 - r / corner if corner > 0 else np.ones((h, w))).astype(np.float32)
+
+
+@dataclass(frozen=True)
+class Transform:
+    """Masks, camera positions and label of one example to the network inputs.
+
+    `size` (h, w) of the masks given to the network (None: keep the store's size); `n_obs`
+    observations (None: all of the example's); `radial` adds the radial image; `coverage`
+    gives float32 covered fractions instead of uint8 0/1 masks.
+    """
+
+    size: tuple[int, int] | None = PAPER_SIZE
+    n_obs: int | None = None
+    radial: bool = False
+    coverage: bool = False
+
+    def __post_init__(self) -> None:
+        if self.size is not None and (len(self.size) != 2 or min(self.size) < 1):
+            raise InputError(f"size must be (height, width) >= 1, got {self.size}")
+        if self.n_obs is not None and self.n_obs < 2:
+            raise InputError(f"n_obs must be at least 2, got {self.n_obs}")
+
+    def select(self, n: int) -> np.ndarray:
+        """Which of an example's n frames to use."""
+        return observation_indices(n, self.n_obs or n)
+
+    @cached_property
+    def _radial(self) -> np.ndarray:
+        return radial_image(self.size)[None]
+
+    def __call__(self, masks: np.ndarray, z: np.ndarray, d1: float) -> dict[str, np.ndarray]:
+        """Inputs from the already selected observations: masks (k, H, W), z (k,), label d1."""
+        size = self.size or masks.shape[1:]
+        dz, zbar = distances(z)
+        out = {"masks": resize_masks(masks, size, self.coverage), "dz": dz, "zbar": zbar, **labels(d1, z)}
+        if self.radial:
+            out["radial"] = self._radial if self.size else radial_image(size)[None]
+        return out
+
+
+PAPER_TRANSFORM = Transform()  # 112x112 uint8 masks, every observation, no radial image

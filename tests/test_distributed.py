@@ -1,0 +1,153 @@
+"""Generating on a Dask LocalCluster: same digest as a local run, survives a killed worker, URLs."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import cloudpickle
+import dask
+import pytest
+
+distributed = pytest.importorskip("distributed", reason="needs the dask extra: pip install -e '.[dask]'")
+
+from click.testing import CliRunner  # noqa: E402
+
+from odms_data.cli import main  # noqa: E402
+from odms_data.errors import InputError  # noqa: E402
+from odms_data.generate import ShardTask, generate, run_shard  # noqa: E402
+from odms_data.generator import preset  # noqa: E402
+from odms_data.store import open_store  # noqa: E402
+from odms_data.validate import validate  # noqa: E402
+
+COUNT, SEED, PER_SHARD = 96, 11, 4  # 24 shards: enough tasks to kill a worker in the middle
+PARAMS = preset("standard", image_size=(120, 160), sizes=(30, 60))
+
+
+def _cluster(processes: bool) -> distributed.LocalCluster:
+    return distributed.LocalCluster(
+        n_workers=2, processes=processes, threads_per_worker=1, dashboard_address=":0"
+    )
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    with _cluster(processes=True) as c:
+        yield c
+
+
+@pytest.fixture(scope="module")
+def local_digest(tmp_path_factory) -> str:
+    path = tmp_path_factory.mktemp("local") / "local.zarr"
+    return generate(str(path), COUNT, PARAMS, SEED, workers=1).digest
+
+
+def _check(path: str, digest: str) -> None:
+    store = open_store(path)  # raises unless complete
+    assert store.attrs.digest == digest
+    report = validate(path)
+    assert report.ok, report.problems
+    assert report.digest == digest
+
+
+def test_same_digest_as_a_local_run(cluster, local_digest, tmp_path):
+    path = str(tmp_path / "dask.zarr")
+    seen = []
+    attrs = generate(path, COUNT, PARAMS, SEED, examples_per_shard=PER_SHARD,
+                     scheduler=cluster.scheduler_address, progress=seen.append)
+    assert attrs.digest == local_digest
+    assert sum(seen) == COUNT and len(seen) == COUNT // PER_SHARD
+    assert not os.path.exists(path + ".partial")
+    _check(path, local_digest)
+
+
+def test_hdf5(cluster, local_digest, tmp_path):
+    """HDF5 tasks return their compressed chunks; the client writes them, as locally."""
+    path = str(tmp_path / "dask.h5")
+    generate(path, COUNT, PARAMS, SEED, examples_per_shard=PER_SHARD, scheduler=cluster.scheduler_address)
+    _check(path, local_digest)
+
+
+def test_file_url(cluster, local_digest, tmp_path):
+    url = f"file://{tmp_path}/url/dask.zarr"
+    generate(url, COUNT, PARAMS, SEED, examples_per_shard=PER_SHARD, scheduler=cluster.scheduler_address)
+    _check(url, local_digest)
+
+
+def test_cli(cluster, local_digest, tmp_path):
+    out = tmp_path / "cli.zarr"
+    args = ["generate", "-n", str(COUNT), "--seed", str(SEED), "--param", "image_size=[120, 160]",
+            "--param", "sizes=[30, 60]", "-o", str(out), "--scheduler", cluster.scheduler_address]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 0, result.output
+    assert local_digest in result.output
+    result = CliRunner().invoke(main, [*args, "--workers", "2", "--overwrite"])
+    assert result.exit_code == 2 and "--workers and --scheduler exclude each other" in result.output
+
+
+def test_memory_url_needs_an_in_process_cluster(cluster, local_digest):
+    with pytest.raises(InputError, match="memory:// store lives in this process"):
+        generate("memory://odms-test/procs.zarr", COUNT, PARAMS, SEED, scheduler=cluster.scheduler_address)
+    with _cluster(processes=False) as threads:
+        url = "memory://odms-test/threads.zarr"
+        generate(url, COUNT, PARAMS, SEED, examples_per_shard=PER_SHARD, scheduler=threads.scheduler_address)
+        _check(url, local_digest)
+
+
+class _DieOnce(distributed.WorkerPlugin):
+    """Crashes its worker as it starts its third shard: one worker in the whole cluster, once."""
+
+    def __init__(self, marker: str) -> None:
+        self.marker, self.started = marker, 0
+
+    def transition(self, key, start, finish, **kwargs) -> None:
+        if finish != "executing":
+            return
+        self.started += 1
+        if self.started == 3:
+            try:
+                os.close(os.open(self.marker, os.O_CREAT | os.O_EXCL))
+            except FileExistsError:
+                return
+            os._exit(1)
+
+
+def test_killed_worker_leaves_a_complete_correct_store(local_digest, tmp_path):
+    marker = tmp_path / "a-worker-died"
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])  # workers cannot import this file
+    # a result still held by the dead worker is recomputed once fetching it has timed out (30 s default)
+    try:
+        with dask.config.set({"distributed.comm.timeouts.connect": "3s"}), _cluster(processes=True) as c, \
+                distributed.Client(c, set_as_default=False) as client:
+            client.register_plugin(_DieOnce(str(marker)))
+            path = str(tmp_path / "killed.zarr")
+            generate(path, COUNT, PARAMS, SEED, examples_per_shard=PER_SHARD, scheduler=c.scheduler_address)
+            client.wait_for_workers(2, timeout=60)  # closing a cluster whose nanny is restarting can hang
+    finally:
+        cloudpickle.unregister_pickle_by_value(sys.modules[__name__])
+    assert marker.exists()
+    _check(path, local_digest)
+
+
+def test_a_rerun_task_rewrites_a_half_written_shard(local_digest, tmp_path):
+    """What a worker killed mid-write leaves (a truncated shard over file://) is replaced whole."""
+    url = f"file://{tmp_path}/half.zarr"
+    generate(url, COUNT, PARAMS, SEED, examples_per_shard=PER_SHARD)
+    shard = tmp_path / "half.zarr" / "masks" / "c" / "1" / "0" / "0"
+    whole = shard.read_bytes()
+    shard.write_bytes(whole[: len(whole) // 2])
+    run_shard(ShardTask(url, "zarr", PARAMS, SEED, "generated", COUNT, PER_SHARD, 2 * PER_SHARD))
+    assert shard.read_bytes() == whole
+    _check(url, local_digest)
+
+
+def test_no_dask_without_a_scheduler(tmp_path):
+    code = (
+        "import sys; from odms_data.generate import generate; from odms_data.generator import preset; "
+        "import odms_data.cli; "
+        f"generate({str(tmp_path / 'x.zarr')!r}, 4, preset('standard', image_size=(60, 80), sizes=(20,)),"
+        " 0); "
+        "assert not {'dask', 'distributed'} & set(sys.modules), 'dask imported'"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)

@@ -1,0 +1,32 @@
+"""tf.data datasets from a store and from the generator."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from loader_stores import COUNT, make_store
+
+tf = pytest.importorskip("tensorflow", reason="TensorFlow is not installed (pip install tensorflow-cpu)")
+
+from odms_data.loaders import Transform, stream_batches  # noqa: E402
+from odms_data.loaders.tf import from_generator, from_store  # noqa: E402
+from odms_data.store import open_store  # noqa: E402
+
+
+def test_from_store(tmp_path):
+    path = make_store(tmp_path, "zarr")
+    ds = from_store(path, 10, transform=Transform(size=(56, 56), n_obs=4))
+    batches = list(ds.as_numpy_iterator())
+    assert batches[0]["masks"].shape == (10, 4, 56, 56) and batches[0]["masks"].dtype == np.uint8
+    assert ds.element_spec["d1"].dtype == tf.float32
+    assert np.concatenate([b["index"] for b in batches]).tolist() == list(range(COUNT))
+    with open_store(path) as s:
+        np.testing.assert_array_equal(np.concatenate([b["d1"] for b in batches]), s.d1.astype(np.float32))
+
+
+def test_from_generator_matches_numpy_loader():
+    ds = from_generator(6, 2, seed=4, workers=2)
+    got = list(ds.as_numpy_iterator())
+    want = list(stream_batches(6, 2, seed=4))
+    assert all(np.array_equal(g[k], w[k]) for g, w in zip(got, want, strict=True) for k in w)
+    assert list(ds.as_numpy_iterator())[1]["index"].tolist() == list(range(6, 12))

@@ -1,0 +1,69 @@
+"""PyTorch datasets with the real DataLoader, in-process and with 2 workers."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from loader_stores import COUNT, make_store
+
+torch = pytest.importorskip("torch", reason="PyTorch is not installed (pip install torch==2.13.0)")
+from torch.utils.data import DataLoader  # noqa: E402
+
+from odms_data.generator import GeneratorParams  # noqa: E402
+from odms_data.loaders import Transform  # noqa: E402
+from odms_data.loaders.torch import StoreDataset, StreamDataset  # noqa: E402
+from odms_data.store import open_store  # noqa: E402
+
+
+def two_workers(dataset, **kwargs) -> DataLoader:
+    """Spawned, not forked: forking a pytest process that has started JAX or TensorFlow threads can
+    deadlock. Store handles inherited across fork are covered in test_loaders_numpy."""
+    return DataLoader(dataset, num_workers=2, multiprocessing_context="spawn", **kwargs)
+
+
+@pytest.fixture(scope="module", params=["zarr", "hdf5"])
+def store_path(request, tmp_path_factory):
+    return make_store(tmp_path_factory.mktemp(request.param), request.param)
+
+
+def _indices(loader) -> list[int]:
+    return torch.cat([b["index"] for b in loader]).tolist()
+
+
+def test_store_dataset(store_path):
+    ds = StoreDataset(store_path, Transform(size=(56, 56), n_obs=5))
+    loader = two_workers(ds, batch_size=8)
+    batches = list(loader)
+    b = batches[0]
+    assert b["masks"].shape == (8, 5, 56, 56) and b["masks"].dtype == torch.uint8
+    assert b["d1"].dtype == torch.float32 and b["zbar"].shape == (8, 3)
+    assert _indices(batches) == list(range(COUNT))  # every example once across the 2 workers
+    with open_store(store_path) as s:
+        d1 = torch.cat([b["d1"] for b in batches]).numpy()
+        np.testing.assert_array_equal(d1, s.d1.astype(np.float32))
+    single = list(DataLoader(ds, batch_size=8))
+    assert all(torch.equal(x[k], y[k]) for x, y in zip(batches, single, strict=True) for k in x)
+
+
+def test_store_dataset_shuffle_reproducible(store_path):
+    ds = StoreDataset(store_path)
+
+    def order(seed):
+        g = torch.Generator().manual_seed(seed)
+        return _indices(two_workers(ds, batch_size=6, shuffle=True, generator=g))
+
+    assert order(1) == order(1) != order(2)
+    assert sorted(order(1)) == list(range(COUNT))
+
+
+def test_stream_dataset_workers_and_epochs():
+    ds = StreamDataset(8, 4, params=GeneratorParams(n_obs=6), seed=3)
+    two = list(two_workers(ds, batch_size=None))
+    one = list(DataLoader(ds, batch_size=None))
+    assert _indices(two) == list(range(32))  # no duplicates, none missing
+    assert all(torch.equal(x[k], y[k]) for x, y in zip(two, one, strict=True) for k in x)
+    assert two[0]["masks"].shape == (8, 6, 112, 112) and two[0]["masks"].dtype == torch.uint8
+    ds.set_epoch(1)
+    assert _indices(two_workers(ds, batch_size=None)) == list(range(32, 64))
+    again = StreamDataset(8, 4, params=GeneratorParams(n_obs=6), seed=3)
+    assert torch.equal(next(iter(again))["masks"], two[0]["masks"])

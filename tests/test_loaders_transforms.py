@@ -1,0 +1,98 @@
+"""The paper's network inputs against hand-computed values, and the fast renderer against the
+generator."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from odms_data.errors import InputError
+from odms_data.generator import GeneratorParams, preset, sample_example
+from odms_data.generator import render_masks as generator_render
+from odms_data.loaders.render import render_masks, render_shrunk, shrink_boxes
+from odms_data.loaders.transforms import (
+    Transform,
+    distances,
+    labels,
+    observation_indices,
+    radial_image,
+    resize_masks,
+)
+from odms_data.masks import stats_of
+
+
+def test_observation_indices_are_linspace_truncated():
+    assert observation_indices(10, 4).tolist() == [0, 3, 6, 9]
+    assert observation_indices(10, 3).tolist() == [0, 4, 9]  # 4.5 truncated
+    assert observation_indices(7, 7).tolist() == list(range(7))
+    with pytest.raises(InputError, match="n_obs=11"):
+        observation_indices(10, 11)
+
+
+def test_distances_and_labels():
+    z = np.array([0.2, 0.3, 0.5, 0.6])
+    dz, zbar = distances(z)
+    np.testing.assert_allclose(dz, [0, 0.1, 0.3, 0.4], atol=1e-7)
+    np.testing.assert_allclose(zbar, [0.25, 0.75], atol=1e-7)
+    assert dz.dtype == zbar.dtype == np.float32
+    got = labels(0.2, z)
+    np.testing.assert_allclose([got["d1"], got["d1_norm"], got["scale"]], [0.2, 0.5, 1 / 3], rtol=1e-6)
+
+
+def test_radial_image():
+    r = radial_image((3, 3))
+    assert r[1, 1] == 1 and r[0, 0] == r[2, 2] == r[0, 2] == 0
+    np.testing.assert_allclose(r[0, 1], 1 - 1 / np.sqrt(2), rtol=1e-6)
+    r = radial_image((112, 112))
+    assert r.dtype == np.float32 and r.max() < 1 and r.min() == 0  # even size: centre between pixels
+
+
+def test_resize_masks_area():
+    m = np.zeros((1, 4, 4), np.uint8)
+    m[0, :2, :2] = [[1, 1], [1, 0]]  # 3/4 of the top-left output pixel
+    m[0, 2, 3] = 1  # 1/4 of the bottom-right one
+    binary = resize_masks(m, (2, 2))
+    assert binary.dtype == np.uint8 and binary.tolist() == [[[1, 0], [0, 0]]]
+    frac = resize_masks(m, (2, 2), coverage=True)
+    assert frac.dtype == np.float32 and frac.tolist() == [[[0.75, 0], [0, 0.25]]]
+
+
+def test_transform_outputs():
+    masks = np.zeros((4, 8, 8), bool)
+    masks[:, 2:6, 2:6] = True
+    out = Transform(size=(4, 4), radial=True)(masks, np.array([0.2, 0.3, 0.5, 0.6]), 0.2)
+    assert out["masks"].shape == (4, 4, 4) and out["masks"][:, 1:3, 1:3].all()
+    assert out["masks"].sum() == 16 and out["radial"].shape == (1, 4, 4)
+    assert out["zbar"].shape == (2,) and out["scale"] == np.float32(1 / 3)
+    with pytest.raises(InputError, match="size"):
+        Transform(size=(0, 4))
+
+
+@pytest.mark.parametrize("params", [GeneratorParams(), preset("perturb", perturb_std=3.0)])
+def test_fast_render_matches_generator(params):
+    for index in range(60):
+        spec = sample_example(params, 11, index)
+        for size in (None, (112, 112), (50, 90)):
+            assert np.array_equal(render_masks(spec, params, size), generator_render(spec, params, size))
+    frames = np.array([0, 4, 9])
+    assert np.array_equal(render_masks(spec, params, (112, 112), frames),
+                          generator_render(spec, params, (112, 112))[frames])
+
+
+@pytest.mark.parametrize("params", [GeneratorParams(), preset("perturb", perturb_std=3.0)])
+def test_shrunk_render_matches_full_size_shrunk(params):
+    frames = np.array([0, 3, 9])
+    for index in range(40):
+        spec = sample_example(params, 12, index)
+        full = generator_render(spec, params)
+        for size, coverage in (((112, 112), False), ((112, 112), True), ((37, 53), False)):
+            want = resize_masks(full[frames], size, coverage)
+            assert np.array_equal(render_shrunk(spec, params, size, frames, coverage), want)
+
+
+def test_shrink_boxes_matches_resize():
+    params = preset("perturb")
+    masks = np.concatenate([generator_render(sample_example(params, 13, i), params) for i in range(20)])
+    boxes = stats_of(masks).bbox
+    for size, coverage in (((112, 112), False), ((112, 112), True), ((37, 53), False)):
+        assert np.array_equal(shrink_boxes(masks, boxes, size, coverage), resize_masks(masks, size, coverage))

@@ -1,0 +1,27 @@
+"""Smoke run of examples/train_odn.py: a few steps, then a predictions CSV for a store."""
+
+from __future__ import annotations
+
+import csv
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from loader_stores import COUNT, make_store
+
+pytest.importorskip("torch", reason="PyTorch is not installed (pip install torch==2.13.0)")
+
+SCRIPT = Path(__file__).resolve().parents[1] / "examples" / "train_odn.py"
+
+
+def test_train_odn_smoke(tmp_path):
+    store = make_store(tmp_path, "zarr")
+    out = tmp_path / "predictions.csv"
+    args = ["--steps", "3", "--batch-size", "4", "--workers", "0", "--store", str(store), "--out", str(out)]
+    run = subprocess.run([sys.executable, str(SCRIPT), *args], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    with open(out, newline="") as f:
+        rows = list(csv.reader(f))
+    assert rows[0] == ["split", "example_id", "d1"] and len(rows) == COUNT + 1
+    assert rows[1][:2] == ["generated", "generated/000000"] and float(rows[1][2]) > 0
