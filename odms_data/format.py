@@ -11,6 +11,7 @@ import numpy as np
 
 from . import __version__
 from .errors import StoreError
+from .masks import packed_width
 from .resources import resource_dir
 
 FORMAT_VERSION = 1
@@ -83,6 +84,27 @@ def attribute_problems(d: Any) -> list[str]:
         path = "/".join(str(p) for p in e.path) or "(root)"
         out.append(f"at {path}: {e.message}")
     return out
+
+
+def layout_problems(backend: Any, raw: dict[str, Any]) -> list[str]:
+    """Arrays whose shape or dtype disagrees with the (schema-valid) attributes `raw`."""
+    F, E = raw["counts"]["frames"], raw["counts"]["examples"]
+    H, W = raw["image_size"]
+    expected = {
+        "masks": (F, H, packed_width(W)), "z": (F,), "depth": (F,), "area": (F,),
+        "largest_area": (F,), "bbox": (F, 4), "d1": (E,),
+    }
+    problems = []
+    for name, dtype in {**FRAME_ARRAYS, **EXAMPLE_ARRAYS}.items():
+        arr = backend.array(name)
+        shape = tuple(arr.shape)
+        if name in expected and shape != expected[name]:
+            problems.append(f"array '{name}' has shape {shape}, expected {expected[name]}")
+        elif name not in expected and (len(shape) != 2 or shape[0] != E or shape[1] < 1):
+            problems.append(f"array '{name}' has shape {shape}, expected ({E}, width >= 1)")
+        if np.dtype(arr.dtype) != np.dtype(dtype):
+            problems.append(f"array '{name}' has dtype {arr.dtype}, expected {np.dtype(dtype)}")
+    return problems
 
 
 def encode_strings(values: list[str]) -> np.ndarray:

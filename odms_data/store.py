@@ -10,7 +10,7 @@ import numpy as np
 
 from .backends import Backend, open_backend
 from .errors import InputError, StoreError
-from .format import EXAMPLE_ARRAYS, FRAME_ARRAYS, StoreAttrs, decode_strings
+from .format import EXAMPLE_ARRAYS, FRAME_ARRAYS, StoreAttrs, decode_strings, layout_problems
 from .masks import unpack
 from .shard_reader import ShardReader
 
@@ -57,9 +57,14 @@ class Store:
     # --- cached small arrays -----------------------------------------------------------
     def _read(self, name: str) -> np.ndarray:
         try:
-            return np.asarray(self.backend.array(name)[...])
+            arr = self.backend.array(name)
+            data = np.asarray(arr[...])
         except Exception as e:
             raise StoreError(f"{self.path}: array '{name}' is unreadable ({e})") from e
+        if data.shape != tuple(arr.shape):
+            raise StoreError(f"{self.path}: array '{name}' read back with shape {data.shape}, "
+                             f"not its declared {tuple(arr.shape)}")
+        return data
 
     @cached_property
     def z(self) -> np.ndarray:
@@ -154,6 +159,8 @@ class Store:
         if not 0 <= i < self.n_examples:
             raise InputError(f"{self.path}: example row {i} is out of range 0..{self.n_examples - 1}")
         frames = self.frames_of(i)
+        if len(frames) and (frames.min() < 0 or frames.max() >= self.n_frames):
+            raise StoreError(f"{self.path}: example row {i} refers to frames outside 0..{self.n_frames - 1}")
         return Example(
             example_id=self.example_ids[i],
             source=self.sources[i],
@@ -199,7 +206,11 @@ def open_store(path: str) -> Store:
         missing = sorted((set(FRAME_ARRAYS) | set(EXAMPLE_ARRAYS)) - backend.names())
         if missing:
             raise StoreError(f"{path}: store lacks the array(s) {', '.join(missing)}")
-        return Store(backend, str(path), StoreAttrs.from_json(raw, str(path)))
+        attrs = StoreAttrs.from_json(raw, str(path))
+        problems = layout_problems(backend, raw)
+        if problems:
+            raise StoreError(f"{path}: {problems[0]}; run `odms-data validate` on it")
+        return Store(backend, str(path), attrs)
     except BaseException:
         backend.close()
         raise

@@ -11,7 +11,7 @@ import numpy as np
 from .backends import open_backend
 from .digest import StoreDigest, example_digest, frame_digests
 from .errors import InputError, OdmsError
-from .format import EXAMPLE_ARRAYS, FRAME_ARRAYS, attribute_problems
+from .format import EXAMPLE_ARRAYS, FRAME_ARRAYS, attribute_problems, layout_problems
 from .masks import mask_stats, packed_width, unpack
 from .splits import load_manifest, split_names
 from .store import Store, open_store
@@ -77,7 +77,7 @@ def validate(path: str) -> Report:
             report.problems.append(f"missing array(s): {', '.join(missing)}")
         if report.problems:
             return report
-        _check_shapes(backend, raw, report)
+        report.problems += layout_problems(backend, raw)
     except OdmsError as e:
         report.problems.append(str(e))
     finally:
@@ -90,25 +90,6 @@ def validate(path: str) -> Report:
     except OdmsError as e:
         report.problems.append(str(e))
     return report
-
-
-def _check_shapes(backend, raw: dict, report: Report) -> None:
-    F, E = raw["counts"]["frames"], raw["counts"]["examples"]
-    H, W = raw["image_size"]
-    expected = {
-        "masks": (F, H, packed_width(W)), "z": (F,), "depth": (F,), "area": (F,),
-        "largest_area": (F,), "bbox": (F, 4), "d1": (E,),
-    }
-    dtypes = {**FRAME_ARRAYS, **EXAMPLE_ARRAYS}
-    for name, dtype in dtypes.items():
-        arr = backend.array(name)
-        shape = tuple(arr.shape)
-        if name in expected and shape != expected[name]:
-            report.problems.append(f"array '{name}' has shape {shape}, expected {expected[name]}")
-        elif name not in expected and (len(shape) != 2 or shape[0] != E):
-            report.problems.append(f"array '{name}' has shape {shape}, expected ({E}, width)")
-        if np.dtype(arr.dtype) != np.dtype(dtype):
-            report.problems.append(f"array '{name}' has dtype {arr.dtype}, expected {np.dtype(dtype)}")
 
 
 def _check_content(store: Store, report: Report) -> None:

@@ -6,7 +6,7 @@ import shutil
 from pathlib import Path
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from odms_data.errors import OdmsError
@@ -81,6 +81,8 @@ def test_random_bytes_as_array_metadata(stores, tmp_path_factory, data, array):
 
 @FUZZ
 @given(offset=st.integers(min_value=0), data=st.binary(min_size=1, max_size=64))
+@example(offset=38_434_758_830, data=b"\x00" * 5)  # once made frame_index read back empty
+@example(offset=4096, data=b"\x00")  # once made an HDF5 name resolve to a non-dataset
 def test_random_bytes_written_into_a_shard_or_hdf5_file(stores, tmp_path_factory, offset, data):
     root = tmp_path_factory.mktemp("f")
     shutil.copytree(stores["s.zarr"], root / "s.zarr")
