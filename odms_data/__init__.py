@@ -14,10 +14,12 @@ from .convert import convert  # noqa: E402
 from .errors import InputError, OdmsError, StoreError  # noqa: E402
 from .generate import generate  # noqa: E402
 from .generator import PRESETS, GeneratorParams, preset  # noqa: E402
+from .import_odms import import_release  # noqa: E402
+from .import_recording import import_recording  # noqa: E402
 from .store import Example, Store, open_store  # noqa: E402
 from .validate import validate  # noqa: E402
 
 __all__ = [
     "Example", "GeneratorParams", "InputError", "OdmsError", "PRESETS", "Store", "StoreError",
-    "convert", "generate", "open_store", "preset", "validate",
+    "convert", "generate", "import_recording", "import_release", "open_store", "preset", "validate",
 ]
