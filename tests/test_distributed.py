@@ -8,10 +8,8 @@ import sys
 
 import cloudpickle
 import dask
+import distributed  # noqa: E402
 import pytest
-
-distributed = pytest.importorskip("distributed", reason="needs the dask extra: pip install -e '.[dask]'")
-
 from click.testing import CliRunner  # noqa: E402
 
 from odms_data.cli import main  # noqa: E402

@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
+import jax
 import numpy as np
 import pytest
-
-jax = pytest.importorskip("jax", reason="JAX is not installed (pip install jax)")
 
 from odms_data.loaders import stream_batches  # noqa: E402
 

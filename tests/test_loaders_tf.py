@@ -3,10 +3,8 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
+import tensorflow as tf
 from loader_stores import COUNT, make_store
-
-tf = pytest.importorskip("tensorflow", reason="TensorFlow is not installed (pip install tensorflow-cpu)")
 
 from odms_data.loaders import Transform, stream_batches  # noqa: E402
 from odms_data.loaders.tf import from_generator, from_store  # noqa: E402

@@ -4,9 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import torch
 from loader_stores import COUNT, make_store
-
-torch = pytest.importorskip("torch", reason="PyTorch is not installed (pip install torch==2.13.0)")
 from torch.utils.data import DataLoader  # noqa: E402
 
 from odms_data.generator import GeneratorParams  # noqa: E402

@@ -141,7 +141,6 @@ def test_leaderboard_rejects_an_invalid_entry(tmp_path):
 
 
 def test_plot_is_written(tmp_path, official_like):
-    pytest.importorskip("matplotlib")
     png = tmp_path / "errors.png"
     r = CliRunner().invoke(main, ["score", str(_preds(tmp_path)), "--data", str(official_like),
                                   "--plot", str(png)])

@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
+import fsspec  # noqa: F401
 import pytest
-
-pytest.importorskip("fsspec", reason="URL stores need fsspec")
 
 from odms_data.errors import StoreExistsError  # noqa: E402
 from odms_data.generate import generate  # noqa: E402

@@ -127,9 +127,8 @@ def test_generated_sim_perturb_val_is_close_to_official_perturb_val(sim_scores):
 
 
 @pytest.fixture(scope="module")
-def official(request):
-    pytest.importorskip("odms_data.import_odms", reason="the official importer (import_odms) is absent")
-    return request.getfixturevalue("official_stores")
+def official(official_stores):
+    return official_stores
 
 
 @pytest.mark.parametrize("n_obs, golden", [(10, GOLDEN), (2, GOLDEN_N2)])
