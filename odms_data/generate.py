@@ -10,7 +10,6 @@ store digest. Nothing depends on the executor, the number of workers or the shar
 from __future__ import annotations
 
 import os
-import zlib
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import dataclass, field
@@ -18,13 +17,12 @@ from multiprocessing import get_context
 
 import numpy as np
 
-from .backends import GZIP_LEVEL, storage_options
 from .digest import StoreDigest, example_digest, frame_digests
 from .errors import InputError
 from .format import StoreAttrs
 from .generator import GeneratorParams, render_frame, sample_example
 from .masks import FrameStats, pack, packed_width
-from .writer import Layout, StoreWriter
+from .writer import Layout, StoreWriter, write_shard_masks
 
 DEFAULT_EXAMPLES_PER_SHARD = 128
 SOURCE = "generated"
@@ -87,25 +85,8 @@ def run_shard(task: ShardTask) -> ShardResult:
         fd = frame_digests(packed[rows], z[rows], z[rows])
         digests.append(example_digest(ids[e], SOURCE, spec.z[0], fd))
     result = ShardResult(task.start, task.stop, z, stats, digests)
-    if task.fmt == "zarr":
-        _write_shard(task.path, task.start * n, packed)
-    else:
-        result.deflated_chunks = [
-            zlib.compress(packed[e * n : (e + 1) * n].tobytes(), GZIP_LEVEL) for e in range(k)
-        ]
+    result.deflated_chunks = write_shard_masks(task.path, task.fmt, task.start * n, packed, n)
     return result
-
-
-def _write_shard(path: str, start: int, packed: np.ndarray) -> None:
-    """Write the whole shard of `masks` at frame `start` afresh: delete what an interrupted earlier
-    attempt may have left first, since zarr reads an existing shard back to merge into it."""
-    import zarr
-    from zarr.core.sync import sync
-
-    masks = zarr.open_array(store=path, path="masks", mode="r+", storage_options=storage_options(path))
-    key = masks.metadata.encode_chunk_key((start // masks.shards[0], 0, 0))
-    sync(masks.store.delete(f"{masks.path}/{key}"))
-    masks.with_config({"write_empty_chunks": True})[start : start + len(packed)] = packed
 
 
 Progress = Callable[[int], None]

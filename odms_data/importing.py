@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import os
 import sys
-import zlib
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future, ProcessPoolExecutor, wait
 from contextlib import contextmanager
@@ -22,14 +21,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .backends import GZIP_LEVEL
 from .digest import StoreDigest, example_digest, frame_digests
 from .errors import InputError
 from .format import StoreAttrs
 from .mask_files import DEFAULT_THRESHOLD, image_size, read_mask
 from .masks import FrameStats, pack, packed_width
 from .validate import Z_ODDITY
-from .writer import Layout, StoreWriter
+from .writer import Layout, StoreWriter, write_shard_masks
 
 TINY_Z_STEP = 1e-4  # m; steps below this (but above 0) are recorded as an oddity
 
@@ -128,17 +126,7 @@ def run_frames(task: FrameTask) -> FrameResult:
     if result.failures:
         return result
     result.stats, result.digests = stats, frame_digests(packed, task.z, task.depth)
-    if task.fmt == "zarr":
-        import zarr
-
-        masks = zarr.open_array(store=task.path, path="masks", mode="r+")
-        masks.with_config({"write_empty_chunks": True})[task.start : task.start + k] = packed
-    else:
-        for c in range(0, k, task.chunk):
-            block = np.zeros((task.chunk, *packed.shape[1:]), np.uint8)
-            part = packed[c : c + task.chunk]
-            block[: len(part)] = part
-            result.deflated_chunks.append(zlib.compress(block.tobytes(), GZIP_LEVEL))
+    result.deflated_chunks = write_shard_masks(task.path, task.fmt, task.start, packed, task.chunk)
     return result
 
 

@@ -11,12 +11,13 @@ from __future__ import annotations
 import fcntl
 import os
 import shutil
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from .backends import Backend, detect_format, is_url, open_backend
+from .backends import GZIP_LEVEL, Backend, detect_format, is_url, open_backend, storage_options
 from .errors import InputError, StoreExistsError, StoreLockedError
 from .format import EXAMPLE_ARRAYS, FRAME_ARRAYS, StoreAttrs, encode_strings
 from .masks import FrameStats, packed_width
@@ -197,6 +198,33 @@ def _url_exists(url: str) -> bool:
 
     fs, root = url_to_fs(url)
     return fs.exists(root)
+
+
+def write_shard_masks(
+    path: str, fmt: str, start: int, packed: np.ndarray, frames_per_chunk: int
+) -> list[bytes]:
+    """Store a worker's whole shard of packed masks, starting at the shard boundary `start`.
+
+    Zarr: written in place afresh, deleting first what an interrupted earlier attempt may have
+    left (zarr reads an existing shard back to merge into it); returns []. HDF5 (one writer
+    only): returns the deflated chunks, zero-padded to full length, for `write_mask_chunk`.
+    """
+    if fmt == "zarr":
+        import zarr
+        from zarr.core.sync import sync
+
+        masks = zarr.open_array(store=path, path="masks", mode="r+", storage_options=storage_options(path))
+        key = masks.metadata.encode_chunk_key((start // masks.shards[0], 0, 0))
+        sync(masks.store.delete(f"{masks.path}/{key}"))
+        masks.with_config({"write_empty_chunks": True})[start : start + len(packed)] = packed
+        return []
+    chunks = []
+    for c in range(0, len(packed), frames_per_chunk):
+        block = np.zeros((frames_per_chunk, *packed.shape[1:]), np.uint8)
+        part = packed[c : c + frames_per_chunk]
+        block[: len(part)] = part
+        chunks.append(zlib.compress(block.tobytes(), GZIP_LEVEL))
+    return chunks
 
 
 def _fit(matrix: np.ndarray, width: int, what: str) -> np.ndarray:

@@ -8,16 +8,16 @@ import sys
 
 import cloudpickle
 import dask
-import distributed  # noqa: E402
+import distributed
 import pytest
-from click.testing import CliRunner  # noqa: E402
+from click.testing import CliRunner
 
-from odms_data.cli import main  # noqa: E402
-from odms_data.errors import InputError  # noqa: E402
-from odms_data.generate import ShardTask, generate, run_shard  # noqa: E402
-from odms_data.generator import preset  # noqa: E402
-from odms_data.store import open_store  # noqa: E402
-from odms_data.validate import validate  # noqa: E402
+from odms_data.cli import main
+from odms_data.errors import InputError
+from odms_data.generate import ShardTask, generate, run_shard
+from odms_data.generator import preset
+from odms_data.store import open_store
+from odms_data.validate import validate
 
 COUNT, SEED, PER_SHARD = 96, 11, 4  # 24 shards: enough tasks to kill a worker in the middle
 PARAMS = preset("standard", image_size=(120, 160), sizes=(30, 60))

@@ -6,7 +6,7 @@ import jax
 import numpy as np
 import pytest
 
-from odms_data.loaders import stream_batches  # noqa: E402
+from odms_data.loaders import stream_batches
 
 
 def test_batches_go_to_device():

@@ -6,9 +6,9 @@ import numpy as np
 import tensorflow as tf
 from loader_stores import COUNT, make_store
 
-from odms_data.loaders import Transform, stream_batches  # noqa: E402
-from odms_data.loaders.tf import from_generator, from_store  # noqa: E402
-from odms_data.store import open_store  # noqa: E402
+from odms_data.loaders import Transform, stream_batches
+from odms_data.loaders.tf import from_generator, from_store
+from odms_data.store import open_store
 
 
 def test_from_store(tmp_path):

@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 import torch
 from loader_stores import COUNT, make_store
-from torch.utils.data import DataLoader  # noqa: E402
+from torch.utils.data import DataLoader
 
-from odms_data.generator import GeneratorParams  # noqa: E402
-from odms_data.loaders import Transform  # noqa: E402
-from odms_data.loaders.torch import StoreDataset, StreamDataset  # noqa: E402
-from odms_data.store import open_store  # noqa: E402
+from odms_data.generator import GeneratorParams
+from odms_data.loaders import Transform
+from odms_data.loaders.torch import StoreDataset, StreamDataset
+from odms_data.store import open_store
 
 
 def two_workers(dataset, **kwargs) -> DataLoader:

@@ -5,10 +5,10 @@ from __future__ import annotations
 import fsspec  # noqa: F401
 import pytest
 
-from odms_data.errors import StoreExistsError  # noqa: E402
-from odms_data.generate import generate  # noqa: E402
-from odms_data.generator import preset  # noqa: E402
-from odms_data.store import open_store  # noqa: E402
+from odms_data.errors import StoreExistsError
+from odms_data.generate import generate
+from odms_data.generator import preset
+from odms_data.store import open_store
 
 PARAMS = preset("standard", image_size=(120, 160), sizes=(30, 60))
 

@@ -10,10 +10,9 @@ processes make batches in parallel outside TensorFlow's threads.
 
 from __future__ import annotations
 
-from ..generator import GeneratorParams
+from typing import Any
+
 from .numpy_loader import Batches, store_batches, stream_batches
-from .sources import STANDARD
-from .transforms import PAPER_TRANSFORM, Transform
 
 try:
     import tensorflow as tf
@@ -32,37 +31,13 @@ def dataset(batches: Batches) -> tf.data.Dataset:
     return tf.data.Dataset.from_generator(lambda: iter(batches), output_signature=signature)
 
 
-def from_store(
-    path: str,
-    batch_size: int,
-    *,
-    transform: Transform = PAPER_TRANSFORM,
-    shuffle: bool = False,
-    seed: int = 0,
-    epoch: int = 0,
-    drop_last: bool = False,
-    workers: int = 0,
-) -> tf.data.Dataset:
-    """Batches of the store at `path` (see numpy_loader.store_batches)."""
-    return dataset(store_batches(
-        path, batch_size, transform=transform, shuffle=shuffle, seed=seed, epoch=epoch,
-        drop_last=drop_last, workers=workers,
-    ))
+def from_store(path: str, batch_size: int, **options: Any) -> tf.data.Dataset:
+    """Batches of the store at `path`; options as numpy_loader.store_batches (transform,
+    shuffle, seed, epoch, drop_last, workers)."""
+    return dataset(store_batches(path, batch_size, **options))
 
 
-def from_generator(
-    batch_size: int,
-    batches: int,
-    *,
-    params: GeneratorParams = STANDARD,
-    seed: int = 0,
-    epoch: int = 0,
-    transform: Transform = PAPER_TRANSFORM,
-    direct: bool = False,
-    workers: int = 0,
-) -> tf.data.Dataset:
-    """Freshly generated batches (see numpy_loader.stream_batches)."""
-    return dataset(stream_batches(
-        batch_size, batches, params=params, seed=seed, epoch=epoch, transform=transform,
-        direct=direct, workers=workers,
-    ))
+def from_generator(batch_size: int, batches: int, **options: Any) -> tf.data.Dataset:
+    """Freshly generated batches; options as numpy_loader.stream_batches (params, seed, epoch,
+    transform, direct, workers)."""
+    return dataset(stream_batches(batch_size, batches, **options))
