@@ -8,6 +8,7 @@ shape choices, contour points with their spacing redraws, then one perturbation 
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, fields, replace
+from functools import lru_cache
 from typing import Any
 
 import cv2
@@ -121,8 +122,23 @@ def sample_example(params: GeneratorParams, seed: int, index: int) -> ExampleSpe
 
 
 def _angular_order(points: np.ndarray) -> np.ndarray:
-    c = points.mean(axis=0)
+    c = np.add.reduce(points, axis=0) / len(points)  # points.mean(axis=0), without its overhead
     return points[np.argsort(np.arctan2(points[:, 1] - c[1], points[:, 0] - c[0]))]
+
+
+def _next(a: np.ndarray) -> np.ndarray:
+    """np.roll(a, -1, axis=0): each row's successor around the loop."""
+    return np.concatenate((a[1:], a[:1]))
+
+
+@lru_cache(maxsize=8)
+def _bernstein(samples: int) -> tuple[np.ndarray, ...]:
+    """The cubic Bernstein weights at `samples` steps, shaped (1, samples, 1)."""
+    t = np.linspace(0.0, 1.0, samples, endpoint=False)[None, :, None]
+    weights = (1 - t) ** 3, 3 * (1 - t) ** 2 * t, 3 * (1 - t) * t**2, t**3
+    for b in weights:
+        b.flags.writeable = False
+    return weights
 
 
 def spaced_points(rng: np.random.Generator, n: int, min_gap: float, tries: int) -> np.ndarray:
@@ -134,7 +150,7 @@ def spaced_points(rng: np.random.Generator, n: int, min_gap: float, tries: int) 
     """
     for _ in range(tries):
         pts = _angular_order(rng.random((n, 2)))
-        gaps = np.roll(pts, -1, axis=0) - pts
+        gaps = _next(pts) - pts
         if np.hypot(gaps[:, 0], gaps[:, 1]).min() >= min_gap:
             break
     return pts
@@ -147,22 +163,21 @@ def bezier_contour(points: np.ndarray, radius: float, rotation: float, samples: 
     weight w = arctan(rotation)/pi + 1/2; the inner control points sit at `radius` times the
     chord length along those tangents.
     """
-    pts = _angular_order(points)
-    chord = np.roll(pts, -1, axis=0) - pts
+    p0 = _angular_order(points)
+    p3 = _next(p0)
+    chord = p3 - p0
     theta = np.mod(np.arctan2(chord[:, 1], chord[:, 0]), 2 * np.pi)
-    prev = np.roll(theta, 1)
+    prev = np.concatenate((theta[-1:], theta[:-1]))
     w = np.arctan(rotation) / np.pi + 0.5
     tangent = w * theta + (1 - w) * prev + np.pi * (np.abs(prev - theta) > np.pi)
-    r = radius * np.hypot(chord[:, 0], chord[:, 1])
-    direction = np.stack([np.cos(tangent), np.sin(tangent)], axis=1)
-    p0, p3 = pts, np.roll(pts, -1, axis=0)
-    p1 = p0 + r[:, None] * direction
-    p2 = p3 - r[:, None] * np.roll(direction, -1, axis=0)
-    t = np.linspace(0.0, 1.0, samples, endpoint=False)[None, :, None]
-    curve = (
-        (1 - t) ** 3 * p0[:, None] + 3 * (1 - t) ** 2 * t * p1[:, None]
-        + 3 * (1 - t) * t**2 * p2[:, None] + t**3 * p3[:, None]
-    )
+    r = (radius * np.hypot(chord[:, 0], chord[:, 1]))[:, None]
+    direction = np.empty((len(p0), 2))
+    np.cos(tangent, out=direction[:, 0])
+    np.sin(tangent, out=direction[:, 1])
+    p1 = p0 + r * direction
+    p2 = p3 - r * _next(direction)
+    b0, b1, b2, b3 = _bernstein(samples)
+    curve = b0 * p0[:, None] + b1 * p1[:, None] + b2 * p2[:, None] + b3 * p3[:, None]
     return curve.reshape(-1, 2)
 
 
