@@ -68,26 +68,39 @@ def test_transform_outputs():
         Transform(size=(0, 4))
 
 
-@pytest.mark.parametrize("params", [GeneratorParams(), preset("perturb", perturb_std=3.0)])
+# objects larger than the image: many frames' boxes leave it
+CLIPPED = GeneratorParams(image_size=(300, 500), sizes=(380, 900), perturb_std=2.0, n_obs=7)
+
+
+@pytest.mark.parametrize("params", [GeneratorParams(), preset("perturb", perturb_std=3.0), CLIPPED])
 def test_fast_render_matches_generator(params):
-    for index in range(60):
-        spec = sample_example(params, 11, index)
-        for size in (None, (112, 112), (50, 90)):
-            assert np.array_equal(render_masks(spec, params, size), generator_render(spec, params, size))
-    frames = np.array([0, 4, 9])
-    assert np.array_equal(render_masks(spec, params, (112, 112), frames),
-                          generator_render(spec, params, (112, 112))[frames])
+    specs = [sample_example(params, 11, index) for index in range(60)]
+    for size in (None, (112, 112), (50, 90)):
+        fast = render_masks(specs, params, size)
+        for spec, masks in zip(specs, fast, strict=True):
+            assert np.array_equal(masks, generator_render(spec, params, size))
+    frames = np.array([0, 4, 6])
+    out = np.full((2, 3, 112, 112), 7, np.uint8)  # a reused buffer: whatever it held is cleared
+    render_masks(specs[:2], params, (112, 112), frames, out)
+    for spec, masks in zip(specs[:2], out, strict=True):
+        assert np.array_equal(masks, generator_render(spec, params, (112, 112))[frames])
 
 
-@pytest.mark.parametrize("params", [GeneratorParams(), preset("perturb", perturb_std=3.0)])
+@pytest.mark.parametrize("params", [GeneratorParams(), preset("perturb", perturb_std=3.0), CLIPPED])
 def test_shrunk_render_matches_full_size_shrunk(params):
-    frames = np.array([0, 3, 9])
-    for index in range(40):
-        spec = sample_example(params, 12, index)
-        full = generator_render(spec, params)
-        for size, coverage in (((112, 112), False), ((112, 112), True), ((37, 53), False)):
-            want = resize_masks(full[frames], size, coverage)
-            assert np.array_equal(render_shrunk(spec, params, size, frames, coverage), want)
+    frames = np.array([0, 3, 6])
+    specs = [sample_example(params, 12, index) for index in range(40)]
+    full = [generator_render(spec, params)[frames] for spec in specs]
+    for size, coverage in (((112, 112), False), ((112, 112), True), ((37, 53), False)):
+        fast = render_shrunk(specs, params, size, frames, coverage)
+        for want, masks in zip(full, fast, strict=True):
+            assert np.array_equal(masks, resize_masks(want, size, coverage))
+    out = np.ones((3, 3, 112, 112), np.float32)
+    render_shrunk(specs[:3], params, (112, 112), frames, True, out)
+    for want, masks in zip(full, out, strict=False):
+        assert np.array_equal(masks, resize_masks(want, (112, 112), True))
+    with pytest.raises(InputError, match=r"out has shape \(3, 3, 112, 112\)"):
+        render_shrunk(specs[:2], params, (112, 112), frames, True, out)
 
 
 def test_shrink_boxes_matches_resize():

@@ -1,79 +1,119 @@
-"""Fast paths for masks at training size, each pixel-exact against the slow way.
+"""Fast paths for masks at training size, for many examples at once, each pixel-exact against
+the slow way.
 
 - `render_masks`: what `generator.render_masks(spec, params, size)` draws (the contour drawn
-  straight at the small size), with the per-frame NumPy work done once for all frames.
+  straight at the small size).
 - `render_shrunk`: what `resize_masks(generator.render_masks(spec, params), size)` gives (the
-  full-size mask shrunk with INTER_AREA, as a store read through the loaders), drawing only the
+  full-size mask shrunk with INTER_AREA, as a store read through the loaders), drawing only each
   object's box at full size: cv2's INTER_AREA weights depend only on the scale, so a crop whose
   edges fall on a whole period of the input/output pixel grids (40 input columns per 7 output
   ones for 640 -> 112) shrinks to exactly the same pixels as the full frame.
 - `shrink_boxes`: the same shortcut for stored masks, whose boxes the store records.
 
-Both fall back to `generator.render_frame` (or a full frame) wherever the shortcut would not hold.
+The per-frame arithmetic of `generator.render_frame` is done once for all frames of all examples,
+in the same order of operations (so the same floats), and frames are stacked as rows of one
+image so that a single cv2.fillPoly call draws them all: no scanline meets two frames' polygons.
+Frames where a shortcut would not hold (a box leaving the image) go through render_frame.
 tests/test_loaders_transforms.py checks equality with the slow way.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
+from ..errors import InputError
 from ..generator import _CROSS, _SHIFT, ExampleSpec, GeneratorParams, render_frame
 from .transforms import resize_masks
 
 cv2.setNumThreads(1)
 
 
-def _geometry(spec: ExampleSpec, params: GeneratorParams, frames: np.ndarray, size: tuple[int, int]):
-    """render_frame's per-frame arithmetic, for several frames at once and in the same order of
-    operations (so the same floats): fixed-point vertices relative to each frame's canvas, the
-    canvas corners lo (x0, y0) and hi (x1, y1), and the perturbation steps k."""
+@dataclass
+class _Geometry:
+    """Frames of several examples, flattened example-major: F = examples x frames per example."""
+
+    fixed: np.ndarray  # (P, 2) int32 fixed-point vertices relative to each frame's canvas corner
+    starts: np.ndarray  # (F + 1,) each frame's first row in `fixed`
+    lo: np.ndarray  # (F, 2) canvas corner x0, y0 (render_frame's canvas, margin included)
+    hi: np.ndarray  # (F, 2) x1, y1, exclusive
+    k: np.ndarray  # (F,) perturbation steps
+    dilate: np.ndarray  # (F,) whether a perturbation dilates (else erodes)
+
+    def polygons(self, offsets: np.ndarray) -> list[np.ndarray]:
+        """Every frame's vertices, moved by its (x, y) pixel offset (offsets: (F, 2))."""
+        shift = np.repeat((offsets << _SHIFT).astype(np.int32), np.diff(self.starts), axis=0)
+        return np.split(self.fixed + shift, self.starts[1:-1])
+
+
+def _geometry(
+    specs: Sequence[ExampleSpec], params: GeneratorParams, frames: np.ndarray, size: tuple[int, int]
+) -> _Geometry:
+    """render_frame's arithmetic for `frames` of every example, at once, with the same floats."""
     H0, W0 = params.image_size
     H, W = size
+    n = len(frames)
     sx_sy = np.array([W / W0, H / H0])
-    scale = params.d_min / spec.z[frames]
-    half = (scale * spec.size / 2)[:, None, None]
-    centre = np.array([W0 / 2, H0 / 2])
-    c = spec.contour
-    poly = np.multiply(c[None], scale[:, None, None])  # in place from here on: fewer allocations
-    poly += centre
-    poly -= half
+    scale = params.d_min / np.concatenate([s.z[frames] for s in specs])
+    half = scale * np.repeat([s.size for s in specs], n) / 2
+    lengths = np.repeat([len(s.contour) for s in specs], n)
+    starts = np.concatenate([[0], np.cumsum(lengths)])
+    poly = np.concatenate([np.broadcast_to(s.contour, (n, *s.contour.shape)).reshape(-1, 2) for s in specs])
+    poly *= np.repeat(scale, lengths)[:, None]  # in place from here on: fewer allocations
+    poly += [W0 / 2, H0 / 2]
+    poly -= np.repeat(half, lengths)[:, None]
     poly *= sx_sy
-    # The mapping is monotone in each coordinate, so the extremes of the mapped contour are the
-    # mapped extremes.
-    ends = ((np.stack([c.min(axis=0), c.max(axis=0)])[None] * scale[:, None, None] + centre) - half) * sx_sy
-    k = np.round(np.abs(spec.perturb[frames]) * sx_sy.min()).astype(np.int64)
-    lo = np.floor(ends[:, 0]).astype(np.int64) - (k + 1)[:, None]
-    hi = np.ceil(ends[:, 1]).astype(np.int64) + (k + 2)[:, None]
-    poly -= lo[:, None, :]
+    perturb = np.concatenate([s.perturb[frames] for s in specs])
+    k = np.round(np.abs(perturb) * sx_sy.min()).astype(np.int64)
+    lo = np.floor(np.minimum.reduceat(poly, starts[:-1], axis=0)).astype(np.int64) - (k + 1)[:, None]
+    hi = np.ceil(np.maximum.reduceat(poly, starts[:-1], axis=0)).astype(np.int64) + (k + 2)[:, None]
+    poly -= np.repeat(lo, lengths, axis=0)
     poly *= 1 << _SHIFT
-    return np.rint(poly, out=poly).astype(np.int32), lo, hi, k
+    fixed = np.rint(poly, out=poly).astype(np.int32)
+    return _Geometry(fixed, starts, lo, hi, k, perturb >= 0)
 
 
 def _frames(spec: ExampleSpec, frames: np.ndarray | None) -> np.ndarray:
     return np.arange(len(spec.z)) if frames is None else np.asarray(frames)
 
 
+def _out(out: np.ndarray | None, shape: tuple[int, ...], dtype) -> np.ndarray:
+    """`out` zeroed (the caller's buffer, e.g. a batch in shared memory), or a new zero array."""
+    if out is None:
+        return np.zeros(shape, dtype)
+    if out.shape != shape or out.dtype != dtype:
+        raise InputError(f"out has shape {out.shape} and dtype {out.dtype}; "
+                         f"need {shape} and {np.dtype(dtype)}")
+    out[...] = 0
+    return out
+
+
 def render_masks(
-    spec: ExampleSpec,
+    specs: Sequence[ExampleSpec],
     params: GeneratorParams,
     size: tuple[int, int] | None = None,
     frames: np.ndarray | None = None,
+    out: np.ndarray | None = None,
 ) -> np.ndarray:
-    """(k, H, W) uint8 0/1: `generator.render_masks(spec, params, size)[frames]` (default: all)."""
+    """(examples, k, H, W) uint8 0/1: `generator.render_masks(spec, params, size)[frames]` of each
+    example (frames default: all), written into `out` when given."""
     H, W = size or params.image_size
-    frames = _frames(spec, frames)
-    out = np.zeros((len(frames), H, W), np.uint8)
-    fixed, lo, hi, k = _geometry(spec, params, frames, (H, W))
-    inside = (k == 0) & (lo >= 0).all(axis=1) & (hi[:, 0] <= W) & (hi[:, 1] <= H)
-    offset = lo << _SHIFT
-    for j, f in enumerate(frames):
-        if inside[j]:
-            cv2.fillPoly(out[j], [fixed[j]], 1, cv2.LINE_8, _SHIFT, (int(offset[j, 0]), int(offset[j, 1])))
-        else:
-            render_frame(spec, params, int(f), out[j])
+    frames = _frames(specs[0], frames)
+    n = len(frames)
+    out = _out(out, (len(specs), n, H, W), np.uint8)
+    g = _geometry(specs, params, frames, (H, W))
+    inside = (g.k == 0) & (g.lo >= 0).all(axis=1) & (g.hi[:, 0] <= W) & (g.hi[:, 1] <= H)
+    if inside.any():  # frame f is rows f * H ... of out seen as one (examples * k * H, W) image
+        rows = np.arange(len(inside)) * H
+        polygons = g.polygons(g.lo + np.stack([np.zeros_like(rows), rows], axis=1))
+        cv2.fillPoly(out.reshape(-1, W), [polygons[f] for f in np.flatnonzero(inside)], 1, cv2.LINE_8, _SHIFT)
+    for f in np.flatnonzero(~inside):
+        e, j = divmod(int(f), n)
+        render_frame(specs[e], params, int(frames[j]), out[e, j])
     return out
 
 
@@ -118,44 +158,75 @@ def shrink_boxes(masks: np.ndarray, boxes: np.ndarray, size: tuple[int, int], co
 
 
 def render_shrunk(
-    spec: ExampleSpec,
+    specs: Sequence[ExampleSpec],
     params: GeneratorParams,
     size: tuple[int, int],
     frames: np.ndarray | None = None,
     coverage: bool = False,
+    out: np.ndarray | None = None,
 ) -> np.ndarray:
-    """(k, h, w): `resize_masks(generator.render_masks(spec, params)[frames], size, coverage)`."""
+    """(examples, k, h, w): `resize_masks(generator.render_masks(spec, params)[frames], size,
+    coverage)` of each example, written into `out` when given.
+
+    Each frame's box, widened to whole periods of the INTER_AREA grid, becomes a tile. Tiles of
+    one width are stacked in one image, drawn by one cv2.fillPoly call, shrunk by one cv2.resize
+    call and cut back into their frames. Frames whose box leaves the image go one by one.
+    """
     H0, W0 = params.image_size
     h, w = size
-    frames = _frames(spec, frames)
+    frames = _frames(specs[0], frames)
+    n = len(frames)
+    dtype = np.float32 if coverage else np.uint8
     if h > H0 or w > W0:
-        return resize_masks(render_masks(spec, params, None, frames), size, coverage)
-    out = np.zeros((len(frames), h, w), np.float32 if coverage else np.uint8)
-    periods = _periods((H0, W0), size)
-    py, _, px, _ = periods
-    fixed, lo, hi, k = _geometry(spec, params, frames, (H0, W0))
-    for j in range(len(frames)):
-        (x0, y0), (x1, y1) = lo[j], hi[j]
-        cx0, cy0, cx1, cy1 = max(x0, 0), max(y0, 0), min(x1, W0), min(y1, H0)
-        if cx0 >= cx1 or cy0 >= cy1:
-            continue
-        X0, X1 = _aligned(cx0, cx1, px)
-        Y0, Y1 = _aligned(cy0, cy1, py)
-        op = (cv2.dilate if spec.perturb[frames[j]] >= 0 else cv2.erode) if k[j] else None
-        if (cx0, cy0, cx1, cy1) == (x0, y0, x1, y1):
-            # render_frame's canvas lies inside the crop with an empty margin, so drawing and
-            # perturbing on the crop itself gives the same pixels
-            crop = np.zeros((Y1 - Y0, X1 - X0), np.uint8)
-            offset = (int(x0 - X0) << _SHIFT, int(y0 - Y0) << _SHIFT)
-            cv2.fillPoly(crop, [fixed[j]], 1, cv2.LINE_8, _SHIFT, offset)
-            if op:
-                crop = op(crop, _CROSS, iterations=int(k[j]))
-        else:
-            canvas = np.zeros((y1 - y0, x1 - x0), np.uint8)
-            cv2.fillPoly(canvas, [fixed[j]], 1, cv2.LINE_8, _SHIFT)
-            if op:
-                canvas = op(canvas, _CROSS, iterations=int(k[j]))
-            crop = np.zeros((Y1 - Y0, X1 - X0), np.uint8)
-            crop[cy0 - Y0 : cy1 - Y0, cx0 - X0 : cx1 - X0] = canvas[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0]
-        _shrink_into(out[j], crop.astype(out.dtype, copy=False), X0, Y0, periods)
-    return out
+        full = render_masks(specs, params, None, frames)
+        shrunk = np.stack([resize_masks(m, size, coverage) for m in full])
+        if out is None:
+            return shrunk
+        out[...] = shrunk
+        return out
+    out = _out(out, (len(specs), n, h, w), dtype).reshape(-1, h, w)
+    periods = py, qy, px, qx = _periods((H0, W0), size)
+    g = _geometry(specs, params, frames, (H0, W0))
+    clip_lo, clip_hi = np.maximum(g.lo, 0), np.minimum(g.hi, [W0, H0])
+    tile_lo = clip_lo // [px, py] * [px, py]
+    tile_hi = -(-clip_hi // [px, py]) * [px, py]
+    inside = (g.lo == clip_lo).all(axis=1) & (g.hi == clip_hi).all(axis=1)
+    # tiles of one width are stacked top to bottom, in frame order: tile t of a group starts at
+    # row top[t] of the group's image
+    tiled = np.flatnonzero(inside)
+    tiled = tiled[np.argsort(tile_hi[tiled, 0] - tile_lo[tiled, 0], kind="stable")]
+    widths, heights = (tile_hi[tiled] - tile_lo[tiled]).T
+    groups = np.flatnonzero(np.diff(widths, prepend=-1, append=-1))
+    above = np.cumsum(heights) - heights
+    top = above - np.repeat(above[groups[:-1]], np.diff(groups))
+    offsets = np.zeros_like(g.lo)
+    offsets[tiled] = g.lo[tiled] - tile_lo[tiled] + np.stack([np.zeros_like(top), top], axis=1)
+    polygons = g.polygons(offsets)
+    for a, b in zip(groups[:-1], groups[1:], strict=True):
+        tiles, width = tiled[a:b], int(widths[a])
+        canvas = np.zeros((int(top[b - 1] + heights[b - 1]), width), np.uint8)
+        # render_frame's canvas lies inside the tile with an empty margin, so drawing and
+        # perturbing on the tile gives the same pixels as on the canvas
+        cv2.fillPoly(canvas, [polygons[f] for f in tiles], 1, cv2.LINE_8, _SHIFT)
+        for t in np.flatnonzero(g.k[tiles]) + a:
+            band = canvas[top[t] : top[t] + heights[t]]
+            op = cv2.dilate if g.dilate[tiled[t]] else cv2.erode
+            band[...] = op(band, _CROSS, iterations=int(g.k[tiled[t]]))
+        ow = width // px * qx
+        small = cv2.resize(canvas.astype(dtype, copy=False), (ow, len(canvas) // py * qy),
+                           interpolation=cv2.INTER_AREA)
+        for t in range(a, b):
+            (X0, Y0), oh, r = tile_lo[tiled[t]], heights[t] // py * qy, top[t] // py * qy
+            oy, ox = Y0 // py * qy, X0 // px * qx
+            out[tiled[t], oy : oy + oh, ox : ox + ow] = small[r : r + oh]
+    for f in np.flatnonzero((clip_lo < clip_hi).all(axis=1) & ~inside):
+        (x0, y0), (x1, y1), (X0, Y0), (X1, Y1) = g.lo[f], g.hi[f], tile_lo[f], tile_hi[f]
+        (cx0, cy0), (cx1, cy1) = clip_lo[f], clip_hi[f]
+        canvas = np.zeros((y1 - y0, x1 - x0), np.uint8)
+        cv2.fillPoly(canvas, [g.fixed[g.starts[f] : g.starts[f + 1]]], 1, cv2.LINE_8, _SHIFT)
+        if g.k[f]:
+            canvas = (cv2.dilate if g.dilate[f] else cv2.erode)(canvas, _CROSS, iterations=int(g.k[f]))
+        crop = np.zeros((Y1 - Y0, X1 - X0), dtype)
+        crop[cy0 - Y0 : cy1 - Y0, cx0 - X0 : cx1 - X0] = canvas[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0]
+        _shrink_into(out[f], crop, int(X0), int(Y0), periods)
+    return out.reshape(len(specs), n, h, w)

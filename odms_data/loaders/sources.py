@@ -9,7 +9,7 @@ and the store reopened on first use.
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -21,14 +21,20 @@ from .render import render_masks, render_shrunk, shrink_boxes
 from .transforms import PAPER_TRANSFORM, Transform
 
 STANDARD = PRESETS["standard"]
+RENDER_CHUNK = 32  # examples drawn together: bounds the scratch images to a few MB
 
 
-def collate(examples: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
-    """Stack examples' arrays along a new first axis."""
+Empty = Callable[[tuple[int, ...], np.dtype], np.ndarray]  # allocates a batch's array
+
+
+def collate(examples: list[dict[str, np.ndarray]], empty: Empty = np.empty) -> dict[str, np.ndarray]:
+    """Stack examples' arrays along a new first axis, into arrays made by `empty`."""
     out = {}
     for key in examples[0]:
+        first = np.asarray(examples[0][key])
+        into = empty((len(examples), *first.shape), first.dtype)
         try:
-            out[key] = np.stack([e[key] for e in examples])
+            out[key] = np.stack([e[key] for e in examples], out=into)
         except ValueError:
             shapes = sorted({np.shape(e[key]) for e in examples})
             raise InputError(
@@ -81,8 +87,8 @@ class StoreExamples:
         chosen = self._chosen(i)
         return self._inputs(i, chosen, self.store.read_masks(chosen))
 
-    def batch(self, indices: Sequence[int]) -> dict[str, np.ndarray]:
-        return collate(self.examples(indices))
+    def batch(self, indices: Sequence[int], empty: Empty = np.empty) -> dict[str, np.ndarray]:
+        return collate(self.examples(indices), empty)
 
     def examples(self, indices: Sequence[int]) -> list[dict[str, np.ndarray]]:
         """Examples by row; the packed masks of nearby rows are read in one slice."""
@@ -120,18 +126,28 @@ class GeneratedExamples:
         self._chosen = transform.select(params.n_obs)
 
     def example(self, index: int) -> dict[str, np.ndarray]:
-        spec = sample_example(self.params, self.seed, index)
-        size = self.transform.size
-        if size is None or self.direct:
-            masks = render_masks(spec, self.params, size, self._chosen)
-        else:
-            masks = render_shrunk(spec, self.params, size, self._chosen, self.transform.coverage)
-        out = self.transform(masks, spec.z[self._chosen], float(spec.z[0]))
-        out["index"] = np.int64(index)
-        return out
+        return {key: a[0] for key, a in self.batch([index]).items()}
 
-    def batch(self, indices: Sequence[int]) -> dict[str, np.ndarray]:
-        return collate([self.example(int(i)) for i in indices])
+    def batch(self, indices: Sequence[int], empty: Empty = np.empty) -> dict[str, np.ndarray]:
+        """The examples at generator `indices`, drawn together (render.py) into arrays made by
+        `empty`, a few dozen examples at a time."""
+        p, t, chosen = self.params, self.transform, self._chosen
+        specs = [sample_example(p, self.seed, int(i)) for i in indices]
+        size = t.size or p.image_size
+        dtype = np.dtype(np.float32 if t.coverage else np.uint8)
+        masks = empty((len(specs), len(chosen), *size), dtype)
+        for start in range(0, len(specs), RENDER_CHUNK):
+            part, into = specs[start : start + RENDER_CHUNK], masks[start : start + RENDER_CHUNK]
+            if t.size is not None and not self.direct:
+                render_shrunk(part, p, size, chosen, t.coverage, into)
+            elif dtype == np.uint8:
+                render_masks(part, p, t.size, chosen, into)
+            else:  # coverage of masks at their drawn size: the 0/1 masks as float32
+                into[...] = render_masks(part, p, t.size, chosen)
+        vectors = collate([t.vectors(s.z[chosen], float(s.z[0]), size) for s in specs], empty)
+        index = empty((len(specs),), np.dtype(np.int64))
+        index[...] = indices
+        return {"masks": masks, **vectors, "index": index}
 
 
 def stream_indices(batch: int, batch_size: int, batches_per_epoch: int, epoch: int) -> range:

@@ -111,8 +111,12 @@ class Transform:
     def __call__(self, masks: np.ndarray, z: np.ndarray, d1: float) -> dict[str, np.ndarray]:
         """Inputs from the already selected observations: masks (k, H, W), z (k,), label d1."""
         size = self.size or masks.shape[1:]
+        return {"masks": resize_masks(masks, size, self.coverage), **self.vectors(z, d1, size)}
+
+    def vectors(self, z: np.ndarray, d1: float, size: tuple[int, int]) -> dict[str, np.ndarray]:
+        """Every input but the masks (of shape `size`), from the selected z (k,) and label d1."""
         dz, zbar = distances(z)
-        out = {"masks": resize_masks(masks, size, self.coverage), "dz": dz, "zbar": zbar, **labels(d1, z)}
+        out = {"dz": dz, "zbar": zbar, **labels(d1, z)}
         if self.radial:
             out["radial"] = self._radial if self.size else radial_image(size)[None]
         return out
