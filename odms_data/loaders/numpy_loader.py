@@ -6,8 +6,8 @@
 
 Batches are made in order, by the calling process or by `workers` spawned processes with at
 most 2 * workers batches in flight; the content never depends on the number of workers. Workers
-hand batches over in shared memory: pickled through a pipe, a batch of 256 examples (32 MB)
-took about 0.4 s, more than making it.
+hand batches over in shared memory blocks that are reused (shared_batches.py): a batch from a
+worker is a set of views of such a block, valid for as long as you keep them.
 """
 
 from __future__ import annotations
@@ -15,40 +15,20 @@ from __future__ import annotations
 from collections.abc import Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
 from multiprocessing import get_context
-from multiprocessing.shared_memory import SharedMemory
 
 import numpy as np
 
 from ..errors import InputError
 from ..generator import GeneratorParams
+from .shared_batches import Arena, BlockPool
 from .sources import STANDARD, GeneratedExamples, StoreExamples, store_order, stream_indices
 from .transforms import PAPER_TRANSFORM, Transform
 
-Layout = dict[str, tuple[tuple[int, ...], str, int]]  # key -> shape, dtype, byte offset
 
-
-def _shared_batch(source: StoreExamples | GeneratedExamples, indices: Sequence[int]) -> tuple[str, Layout]:
-    """Make a batch in a worker and leave it in a new shared memory block for the parent."""
-    batch = source.batch(indices)
-    shm = SharedMemory(create=True, size=max(1, sum(a.nbytes for a in batch.values())))
-    layout, offset = {}, 0
-    for key, a in batch.items():
-        np.ndarray(a.shape, a.dtype, buffer=shm.buf, offset=offset)[...] = a
-        layout[key] = (a.shape, a.dtype.str, offset)
-        offset += a.nbytes
-    shm.close()
-    return shm.name, layout
-
-
-def _take_shared(name: str, layout: Layout) -> dict[str, np.ndarray]:
-    """Copy a batch out of its shared memory block and free the block."""
-    shm = SharedMemory(name=name)
-    try:
-        return {k: np.ndarray(shape, np.dtype(dt), buffer=shm.buf, offset=off).copy()
-                for k, (shape, dt, off) in layout.items()}
-    finally:
-        shm.close()
-        shm.unlink()
+def _make_batch(source: StoreExamples | GeneratedExamples, indices: Sequence[int], lent: str | None):
+    """In a worker: make a batch in the lent shared memory block (or a new one)."""
+    arena = Arena(lent)
+    return arena.finish(source.batch(indices, arena.empty))
 
 
 class Batches:
@@ -71,21 +51,31 @@ class Batches:
                 yield self.source.batch(indices)
             return
         # spawn, not fork: forking a process that has started JAX or TensorFlow threads is unsafe
+        blocks = BlockPool()
         with ProcessPoolExecutor(self.workers, mp_context=get_context("spawn")) as pool:
             todo = iter(self.plan)
-            pending: list[Future] = [pool.submit(_shared_batch, self.source, b) for _, b in zip(
-                range(2 * self.workers), todo, strict=False)]
+            pending: list[tuple[Future, str | None]] = []
+
+            def submit(indices: Sequence[int]) -> None:
+                lent = blocks.lend()
+                pending.append((pool.submit(_make_batch, self.source, indices, lent), lent))
+
+            for _, indices in zip(range(2 * self.workers), todo, strict=False):
+                submit(indices)
             try:
                 while pending:
-                    batch = _take_shared(*pending.pop(0).result())
+                    future, lent = pending.pop(0)
+                    batch = blocks.take(*future.result(), lent)
                     nxt = next(todo, None)
                     if nxt is not None:
-                        pending.append(pool.submit(_shared_batch, self.source, nxt))
+                        submit(nxt)
                     yield batch
-            finally:  # stopped early: free the blocks of batches made but not taken
-                for f in pending:
-                    if not f.cancel() and f.exception() is None:
-                        _take_shared(*f.result())
+                    del batch  # our reference: the block is reused once the caller drops it too
+            finally:  # stopped early: batches made but not taken go back to the pool
+                for future, lent in pending:
+                    if not future.cancel() and future.exception() is None:
+                        blocks.give_back(future.result()[0], lent)
+                blocks.close()
 
 
 def _check_batch_size(batch_size: int) -> None:

@@ -1,0 +1,134 @@
+"""Batches carried from worker processes to the caller in shared memory, without copies.
+
+A worker writes a batch's arrays straight into a shared memory block lent by the caller (the
+sources allocate through `Arena.empty`); the caller gets arrays that are views of its own mapping
+of that block. A block goes back to the free list once every array of the batch it carried is
+gone, so in a training loop the same few blocks carry every batch and no page is faulted in twice.
+Pickling a batch of 256 examples (32 MB) through a pipe took about 0.4 s, and a fresh block per
+batch spent about 30 ms on page faults in each process; reusing blocks removes both.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import weakref
+from multiprocessing.shared_memory import SharedMemory
+
+import numpy as np
+
+Layout = dict[str, tuple[tuple[int, ...], str, int]]  # key -> shape, dtype, byte offset in the block
+_ALIGN = 64
+_ATTACHED: dict[str, SharedMemory] = {}  # blocks this worker has mapped, by name
+
+
+class _Block(SharedMemory):
+    """A block that may outlive its SharedMemory object: arrays viewing it keep the mapping."""
+
+    def __del__(self) -> None:
+        with contextlib.suppress(BufferError, OSError):
+            self.close()
+
+
+def _attach(name: str) -> SharedMemory:
+    if name not in _ATTACHED:
+        _ATTACHED[name] = _Block(name=name)
+    return _ATTACHED[name]
+
+
+def _aligned(n: int) -> int:
+    return -(-n // _ALIGN) * _ALIGN
+
+
+class Arena:
+    """A worker's allocator for one batch: arrays in the lent block while they fit, private
+    memory after that (`finish` then moves the batch to a new block)."""
+
+    def __init__(self, lent: str | None) -> None:
+        self.block = _attach(lent) if lent else None
+        self.used = 0
+        self.placed: dict[int, int] = {}  # id(array) -> offset, for arrays in the block
+
+    def empty(self, shape: tuple[int, ...], dtype: np.dtype) -> np.ndarray:
+        nbytes = int(np.prod(shape)) * np.dtype(dtype).itemsize
+        start = _aligned(self.used)
+        if self.block is None or start + nbytes > self.block.size:
+            self.used = start + nbytes
+            return np.empty(shape, dtype)
+        self.used = start + nbytes
+        a = np.ndarray(shape, dtype, buffer=self.block.buf, offset=start)
+        self.placed[id(a)] = start
+        return a
+
+    def finish(self, batch: dict[str, np.ndarray]) -> tuple[str, Layout]:
+        """The block holding `batch` and where each array lies in it."""
+        if self.block is not None and all(id(a) in self.placed for a in batch.values()):
+            return self.block.name, {k: (a.shape, a.dtype.str, self.placed[id(a)]) for k, a in batch.items()}
+        block = _Block(create=True, size=max(1, sum(_aligned(a.nbytes) for a in batch.values())))
+        _ATTACHED[block.name] = block
+        layout, offset = {}, 0
+        for key, a in batch.items():
+            np.ndarray(a.shape, a.dtype, buffer=block.buf, offset=offset)[...] = a
+            layout[key] = (a.shape, a.dtype.str, offset)
+            offset += _aligned(a.nbytes)
+        return block.name, layout
+
+
+class BlockPool:
+    """The caller's side: lends free blocks to workers and turns (block, layout) into arrays."""
+
+    def __init__(self) -> None:
+        self.blocks: dict[str, SharedMemory] = {}
+        self.free: list[str] = []
+        self.closed = False
+
+    def lend(self) -> str | None:
+        """A free block for the next batch, or None (the worker makes one)."""
+        return self.free.pop() if self.free else None
+
+    def take(self, name: str, layout: Layout, lent: str | None) -> dict[str, np.ndarray]:
+        """The batch in block `name` as arrays viewing it; the block is free again once they are
+        all gone. A lent block the worker did not use (too small) is dropped."""
+        if lent is not None and lent != name:
+            self._drop(lent)
+        if name not in self.blocks:
+            self.blocks[name] = _Block(name=name)
+        block = self.blocks[name]
+        sizes = {k: int(np.prod(shape)) * np.dtype(dt).itemsize for k, (shape, dt, _) in layout.items()}
+        end = max((off + sizes[k] for k, (_, _, off) in layout.items()), default=0)
+        owner = (ctypes.c_char * max(end, 1)).from_buffer(block.buf)  # views of it keep it alive
+        weakref.finalize(owner, self._release, name)
+        base = np.frombuffer(owner, np.uint8)
+        return {key: base[off : off + sizes[key]].view(dt).reshape(shape)
+                for key, (shape, dt, off) in layout.items()}
+
+    def give_back(self, name: str, lent: str | None) -> None:
+        """A batch made but never taken (the caller stopped early)."""
+        if lent is not None and lent != name:
+            self._drop(lent)
+        self.blocks.setdefault(name, _Block(name=name))
+        self._release(name)
+
+    def _release(self, name: str) -> None:
+        """Called as the last array of a batch goes: the block is free, or, after close, left
+        for the garbage collector (it is still exported while this runs)."""
+        if not self.closed:
+            self.free.append(name)
+        else:
+            self.blocks.pop(name, None)
+
+    def _drop(self, name: str) -> None:
+        block = self.blocks.pop(name, None) or _Block(name=name)
+        block.unlink()
+        with contextlib.suppress(BufferError):
+            block.close()
+
+    def close(self) -> None:
+        """Remove every block's name; blocks still viewed by batches stay mapped until those
+        batches are gone."""
+        self.closed = True
+        for block in self.blocks.values():
+            block.unlink()
+        for name in self.free:
+            self.blocks.pop(name).close()
+        self.free.clear()
