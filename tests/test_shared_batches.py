@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import gc
+import sys
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -97,3 +99,21 @@ def test_close_removes_block_names():
     pool.take(name, layout, None)
     pool.close()
     assert name.lstrip("/") not in shm_names()
+
+
+def test_batches_dropped_in_another_thread_while_closing():
+    """TensorFlow drops batches in its own thread, possibly while the pool closes."""
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)  # switch threads as often as possible, to interleave the two
+    try:
+        for _ in range(20):
+            pool = BlockPool()
+            batches = [pool.take(*make(None, 2), None) for _ in range(40)]
+            dropper = threading.Thread(target=lambda held=batches: [held.pop() for _ in range(40)])
+            dropper.start()
+            pool.close()
+            dropper.join()
+            gc.collect()
+            assert not pool.free and not pool.blocks
+    finally:
+        sys.setswitchinterval(interval)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import threading
 import weakref
 from multiprocessing.shared_memory import SharedMemory
 
@@ -75,25 +76,36 @@ class Arena:
 
 
 class BlockPool:
-    """The caller's side: lends free blocks to workers and turns (block, layout) into arrays."""
+    """The caller's side: lends free blocks to workers and turns (block, layout) into arrays.
+    Batches may be dropped in any thread (TensorFlow's, say), so the state is under a lock."""
 
     def __init__(self) -> None:
         self.blocks: dict[str, SharedMemory] = {}
         self.free: list[str] = []
         self.closed = False
+        self._lock = threading.RLock()  # re-entrant: a release can run inside any of these
 
     def lend(self) -> str | None:
         """A free block for the next batch, or None (the worker makes one)."""
-        return self.free.pop() if self.free else None
+        with self._lock:
+            return self.free.pop() if self.free else None
+
+    def _mapped(self, name: str, lent: str | None) -> SharedMemory:
+        """Our mapping of block `name`; a lent block the worker did not use (too small) is dropped."""
+        with self._lock:
+            if lent is not None and lent != name:
+                block = self.blocks.pop(lent)
+                block.unlink()
+                with contextlib.suppress(BufferError):
+                    block.close()
+            if name not in self.blocks:
+                self.blocks[name] = _Block(name=name)
+            return self.blocks[name]
 
     def take(self, name: str, layout: Layout, lent: str | None) -> dict[str, np.ndarray]:
         """The batch in block `name` as arrays viewing it; the block is free again once they are
-        all gone. A lent block the worker did not use (too small) is dropped."""
-        if lent is not None and lent != name:
-            self._drop(lent)
-        if name not in self.blocks:
-            self.blocks[name] = _Block(name=name)
-        block = self.blocks[name]
+        all gone."""
+        block = self._mapped(name, lent)
         sizes = {k: int(np.prod(shape)) * np.dtype(dt).itemsize for k, (shape, dt, _) in layout.items()}
         end = max((off + sizes[k] for k, (_, _, off) in layout.items()), default=0)
         owner = (ctypes.c_char * max(end, 1)).from_buffer(block.buf)  # views of it keep it alive
@@ -104,31 +116,26 @@ class BlockPool:
 
     def give_back(self, name: str, lent: str | None) -> None:
         """A batch made but never taken (the caller stopped early)."""
-        if lent is not None and lent != name:
-            self._drop(lent)
-        self.blocks.setdefault(name, _Block(name=name))
+        self._mapped(name, lent)
         self._release(name)
 
     def _release(self, name: str) -> None:
         """Called as the last array of a batch goes: the block is free, or, after close, left
         for the garbage collector (it is still exported while this runs)."""
-        if not self.closed:
-            self.free.append(name)
-        else:
-            self.blocks.pop(name, None)
-
-    def _drop(self, name: str) -> None:
-        block = self.blocks.pop(name, None) or _Block(name=name)
-        block.unlink()
-        with contextlib.suppress(BufferError):
-            block.close()
+        with self._lock:
+            if not self.closed:
+                self.free.append(name)
+            else:
+                self.blocks.pop(name, None)
 
     def close(self) -> None:
         """Remove every block's name; blocks still viewed by batches stay mapped until those
         batches are gone."""
-        self.closed = True
-        for block in self.blocks.values():
-            block.unlink()
-        for name in self.free:
-            self.blocks.pop(name).close()
-        self.free.clear()
+        with self._lock:
+            self.closed = True
+            for block in list(self.blocks.values()):
+                block.unlink()
+            for name in self.free:
+                with contextlib.suppress(BufferError):
+                    self.blocks.pop(name).close()
+            self.free.clear()
