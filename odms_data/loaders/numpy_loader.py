@@ -24,11 +24,19 @@ from .shared_batches import Arena, BlockPool
 from .sources import STANDARD, GeneratedExamples, StoreExamples, store_order, stream_indices
 from .transforms import PAPER_TRANSFORM, Transform
 
+_source: StoreExamples | GeneratedExamples | None = None  # a worker's source, set once
 
-def _make_batch(source: StoreExamples | GeneratedExamples, indices: Sequence[int], lent: str | None):
+
+def _set_source(source: StoreExamples | GeneratedExamples) -> None:
+    """Worker initialiser: the source travels once, so a store is opened once per worker."""
+    global _source
+    _source = source
+
+
+def _make_batch(indices: Sequence[int], lent: str | None):
     """In a worker: make a batch in the lent shared memory block (or a new one)."""
     arena = Arena(lent)
-    return arena.finish(source.batch(indices, arena.empty))
+    return arena.finish(_source.batch(indices, arena.empty))
 
 
 class Batches:
@@ -52,13 +60,15 @@ class Batches:
             return
         # spawn, not fork: forking a process that has started JAX or TensorFlow threads is unsafe
         blocks = BlockPool()
-        with ProcessPoolExecutor(self.workers, mp_context=get_context("spawn")) as pool:
+        with ProcessPoolExecutor(
+            self.workers, mp_context=get_context("spawn"), initializer=_set_source, initargs=(self.source,)
+        ) as pool:
             todo = iter(self.plan)
             pending: list[tuple[Future, str | None]] = []
 
             def submit(indices: Sequence[int]) -> None:
                 lent = blocks.lend()
-                pending.append((pool.submit(_make_batch, self.source, indices, lent), lent))
+                pending.append((pool.submit(_make_batch, indices, lent), lent))
 
             for _, indices in zip(range(2 * self.workers), todo, strict=False):
                 submit(indices)
