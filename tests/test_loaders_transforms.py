@@ -101,6 +101,11 @@ def test_shrunk_render_matches_full_size_shrunk(params):
         assert np.array_equal(masks, resize_masks(want, (112, 112), True))
     with pytest.raises(InputError, match=r"out has shape \(3, 3, 112, 112\)"):
         render_shrunk(specs[:2], params, (112, 112), frames, True, out)
+    strided = np.ones((3, 3, 112, 224), np.float32)[..., ::2]
+    with pytest.raises(InputError, match="C-contiguous"):  # drawing would go into a copy
+        render_shrunk(specs[:3], params, (112, 112), frames, True, strided)
+    with pytest.raises(InputError, match="no examples"):
+        render_masks([], params)
 
 
 def test_shrink_boxes_matches_resize():

@@ -77,17 +77,19 @@ def _geometry(
     return _Geometry(fixed, starts, lo, hi, k, perturb >= 0)
 
 
-def _frames(spec: ExampleSpec, frames: np.ndarray | None) -> np.ndarray:
-    return np.arange(len(spec.z)) if frames is None else np.asarray(frames)
+def _frames(specs: Sequence[ExampleSpec], frames: np.ndarray | None) -> np.ndarray:
+    if not specs:
+        raise InputError("no examples to draw")
+    return np.arange(len(specs[0].z)) if frames is None else np.asarray(frames)
 
 
 def _out(out: np.ndarray | None, shape: tuple[int, ...], dtype) -> np.ndarray:
     """`out` zeroed (the caller's buffer, e.g. a batch in shared memory), or a new zero array."""
     if out is None:
         return np.zeros(shape, dtype)
-    if out.shape != shape or out.dtype != dtype:
-        raise InputError(f"out has shape {out.shape} and dtype {out.dtype}; "
-                         f"need {shape} and {np.dtype(dtype)}")
+    if out.shape != shape or out.dtype != dtype or not out.flags.c_contiguous:
+        raise InputError(f"out has shape {out.shape} and dtype {out.dtype}; need a C-contiguous "
+                         f"array of shape {shape} and dtype {np.dtype(dtype)}")
     out[...] = 0
     return out
 
@@ -102,7 +104,7 @@ def render_masks(
     """(examples, k, H, W) uint8 0/1: `generator.render_masks(spec, params, size)[frames]` of each
     example (frames default: all), written into `out` when given."""
     H, W = size or params.image_size
-    frames = _frames(specs[0], frames)
+    frames = _frames(specs, frames)
     n = len(frames)
     out = _out(out, (len(specs), n, H, W), np.uint8)
     g = _geometry(specs, params, frames, (H, W))
@@ -174,7 +176,7 @@ def render_shrunk(
     """
     H0, W0 = params.image_size
     h, w = size
-    frames = _frames(specs[0], frames)
+    frames = _frames(specs, frames)
     n = len(frames)
     dtype = np.float32 if coverage else np.uint8
     if h > H0 or w > W0:
