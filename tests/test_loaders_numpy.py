@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 from loader_stores import COUNT, PARAMS, make_store
@@ -112,3 +114,11 @@ def test_batch_reads_scattered_rows_one_by_one(store_path):
     for j, i in enumerate(rows):
         assert np.array_equal(batch["masks"][j], examples.example(i)["masks"])
     assert batch["index"].tolist() == rows
+
+
+def test_worker_error_reaches_the_caller_and_leaves_no_blocks(store_path):
+    before = set(os.listdir("/dev/shm"))
+    batches = store_batches(store_path, 8, transform=Transform(n_obs=12), workers=2)  # the store has n = 10
+    with pytest.raises(InputError, match=r"example .*n_obs=12 for an example of 10 frames"):
+        next(iter(batches))
+    assert set(os.listdir("/dev/shm")) <= before
