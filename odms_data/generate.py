@@ -11,9 +11,8 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable, Iterator
-from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures import Future
 from dataclasses import dataclass, field
-from multiprocessing import get_context
 
 import numpy as np
 
@@ -22,6 +21,7 @@ from .errors import InputError
 from .format import StoreAttrs
 from .generator import GeneratorParams, render_frame, sample_example
 from .masks import FrameStats, pack, packed_width
+from .worker_pool import spawn_pool
 from .writer import Layout, StoreWriter, write_shard_masks
 
 DEFAULT_EXAMPLES_PER_SHARD = 128
@@ -105,7 +105,7 @@ def _run_local(tasks: list[ShardTask], workers: int) -> Iterator[ShardResult]:
     if workers <= 1:
         yield from map(run_shard, tasks)
         return
-    with ProcessPoolExecutor(workers, mp_context=get_context("spawn")) as pool:
+    with spawn_pool(workers) as pool:
         pending: list[Future] = []
         todo = iter(tasks)
         for t in todo:

@@ -13,10 +13,9 @@ from __future__ import annotations
 import os
 import sys
 from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import Future, ProcessPoolExecutor, wait
+from concurrent.futures import Future, wait
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from multiprocessing import get_context
 from pathlib import Path
 
 import numpy as np
@@ -27,6 +26,7 @@ from .format import StoreAttrs
 from .mask_files import DEFAULT_THRESHOLD, image_size, read_mask
 from .masks import FrameStats, pack, packed_width
 from .validate import Z_ODDITY
+from .worker_pool import spawn_pool
 from .writer import Layout, StoreWriter, write_shard_masks
 
 TINY_Z_STEP = 1e-4  # m; steps below this (but above 0) are recorded as an oddity
@@ -159,9 +159,7 @@ class Workers:
 
     def __enter__(self) -> Workers:
         if self.n > 1:
-            self.pool = ProcessPoolExecutor(
-                self.n, mp_context=get_context("spawn"), initializer=_silence_worker
-            )
+            self.pool = spawn_pool(self.n, _silence_worker)
         return self
 
     def __exit__(self, *exc) -> None:

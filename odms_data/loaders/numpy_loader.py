@@ -13,13 +13,13 @@ worker is a set of views of such a block, valid for as long as you keep them.
 from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
-from concurrent.futures import Future, ProcessPoolExecutor
-from multiprocessing import get_context
+from concurrent.futures import Future
 
 import numpy as np
 
 from ..errors import InputError
 from ..generator import GeneratorParams
+from ..worker_pool import spawn_pool
 from .shared_batches import Arena, BlockPool
 from .sources import STANDARD, GeneratedExamples, StoreExamples, store_order, stream_indices
 from .transforms import PAPER_TRANSFORM, Transform
@@ -58,11 +58,8 @@ class Batches:
             for indices in self.plan:
                 yield self.source.batch(indices)
             return
-        # spawn, not fork: forking a process that has started JAX or TensorFlow threads is unsafe
         blocks = BlockPool()
-        with ProcessPoolExecutor(
-            self.workers, mp_context=get_context("spawn"), initializer=_set_source, initargs=(self.source,)
-        ) as pool:
+        with spawn_pool(self.workers, _set_source, (self.source,)) as pool:
             todo = iter(self.plan)
             pending: list[tuple[Future, str | None]] = []
 

@@ -18,6 +18,8 @@ from multiprocessing.shared_memory import SharedMemory
 
 import numpy as np
 
+from ..worker_pool import uninterrupted
+
 Layout = dict[str, tuple[tuple[int, ...], str, int]]  # key -> shape, dtype, byte offset in the block
 _ALIGN = 64
 _ATTACHED: dict[str, SharedMemory] = {}  # blocks this worker has mapped, by name
@@ -65,7 +67,8 @@ class Arena:
         """The block holding `batch` and where each array lies in it."""
         if self.block is not None and all(id(a) in self.placed for a in batch.values()):
             return self.block.name, {k: (a.shape, a.dtype.str, self.placed[id(a)]) for k, a in batch.items()}
-        block = _Block(create=True, size=max(1, sum(_aligned(a.nbytes) for a in batch.values())))
+        with uninterrupted:  # created and registered with the resource tracker, or not at all
+            block = _Block(create=True, size=max(1, sum(_aligned(a.nbytes) for a in batch.values())))
         _ATTACHED[block.name] = block
         layout, offset = {}, 0
         for key, a in batch.items():

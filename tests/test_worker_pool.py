@@ -1,0 +1,78 @@
+"""Worker processes exit with the process that started them, even when it is SIGKILLed."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+LOADER = """
+import sys
+from odms_data.loaders import Transform, stream_batches
+if __name__ == "__main__":
+    batches = iter(stream_batches(8, 1000, transform=Transform(size=(32, 32)), workers=2))
+    next(batches)
+    print("started", flush=True)
+    sys.stdin.read()  # until killed
+"""
+
+
+def state(pid: int) -> tuple[str, int] | None:
+    """(state letter, parent pid) of a process, or None once it is gone."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(") ", 1)[1].split()
+    except (FileNotFoundError, IndexError):
+        return None
+    return fields[0], int(fields[1])
+
+
+def alive(pid: int) -> bool:
+    """Running (a zombie waiting for init to reap it counts as gone)."""
+    s = state(pid)
+    return s is not None and s[0] != "Z"
+
+
+def children(pid: int) -> list[int]:
+    found = [int(p.name) for p in Path("/proc").iterdir() if p.name.isdigit()]
+    return [p for p in found if (state(p) or ("", 0))[1] == pid]
+
+
+def kill_and_wait(parent: subprocess.Popen, workers: list[int], shm_before: set[str]) -> None:
+    parent.send_signal(signal.SIGKILL)
+    parent.wait()
+    deadline = time.monotonic() + 20
+    while any(alive(p) for p in workers) or set(os.listdir("/dev/shm")) - shm_before:
+        if time.monotonic() > deadline:
+            break
+        time.sleep(0.1)
+
+
+def test_loader_workers_and_their_blocks_go_when_the_parent_is_killed():
+    before = set(os.listdir("/dev/shm"))
+    parent = subprocess.Popen(
+        [sys.executable, "-c", LOADER], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
+    )
+    assert parent.stdout.readline().strip() == "started"
+    workers = children(parent.pid)  # the two workers and multiprocessing's resource tracker
+    assert len(workers) == 3 and all(alive(p) for p in workers)
+    assert set(os.listdir("/dev/shm")) - before  # the blocks carrying batches
+    kill_and_wait(parent, workers, before)
+    assert not any(alive(p) for p in workers)
+    assert not set(os.listdir("/dev/shm")) - before  # removed by the resource tracker
+    parent.stdin.close()
+    parent.stdout.close()
+
+
+def test_generate_workers_go_when_the_command_is_killed(tmp_path):
+    cli = Path(sys.executable).with_name("odms-data")
+    command = [cli, "generate", "-n", "1000000", "--workers", "2", "-o", tmp_path / "big.zarr"]
+    parent = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 60
+    while len(workers := children(parent.pid)) < 3 and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert len(workers) == 3
+    kill_and_wait(parent, workers, set(os.listdir("/dev/shm")))
+    assert not any(alive(p) for p in workers)
