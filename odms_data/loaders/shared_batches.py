@@ -50,23 +50,27 @@ class Arena:
     def __init__(self, lent: str | None) -> None:
         self.block = _attach(lent) if lent else None
         self.used = 0
-        self.placed: dict[int, int] = {}  # id(array) -> offset, for arrays in the block
 
     def empty(self, shape: tuple[int, ...], dtype: np.dtype) -> np.ndarray:
         nbytes = int(np.prod(shape)) * np.dtype(dtype).itemsize
         start = _aligned(self.used)
-        if self.block is None or start + nbytes > self.block.size:
-            self.used = start + nbytes
-            return np.empty(shape, dtype)
         self.used = start + nbytes
-        a = np.ndarray(shape, dtype, buffer=self.block.buf, offset=start)
-        self.placed[id(a)] = start
-        return a
+        if self.block is None or self.used > self.block.size:
+            return np.empty(shape, dtype)
+        return np.ndarray(shape, dtype, buffer=self.block.buf, offset=start)
+
+    def _offset(self, a: np.ndarray) -> int | None:
+        """Where `a` lies in the lent block, if it is a contiguous piece of it."""
+        if self.block is None or not a.flags.c_contiguous:
+            return None
+        offset = a.ctypes.data - np.frombuffer(self.block.buf, np.uint8).ctypes.data
+        return offset if 0 <= offset and offset + a.nbytes <= self.block.size else None
 
     def finish(self, batch: dict[str, np.ndarray]) -> tuple[str, Layout]:
         """The block holding `batch` and where each array lies in it."""
-        if self.block is not None and all(id(a) in self.placed for a in batch.values()):
-            return self.block.name, {k: (a.shape, a.dtype.str, self.placed[id(a)]) for k, a in batch.items()}
+        offsets = {key: self._offset(a) for key, a in batch.items()}
+        if self.block is not None and None not in offsets.values():
+            return self.block.name, {k: (a.shape, a.dtype.str, offsets[k]) for k, a in batch.items()}
         with uninterrupted:  # created and registered with the resource tracker, or not at all
             block = _Block(create=True, size=max(1, sum(_aligned(a.nbytes) for a in batch.values())))
         _ATTACHED[block.name] = block
