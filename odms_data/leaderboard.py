@@ -9,7 +9,6 @@ from __future__ import annotations
 import datetime
 import hashlib
 import json
-import re
 from functools import cache
 from pathlib import Path
 from typing import Any
@@ -42,11 +41,6 @@ def check_entry(entry: Any, where: str) -> dict:
         more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
         raise InputError(f"{where}: not a valid leaderboard entry: {problems[0]}{more}")
     return entry
-
-
-def slug(name: str) -> str:
-    """File name stem for an entry name: 'ODN_l (n=5)' -> 'odn_l-n-5'."""
-    return re.sub(r"[^a-z0-9_]+", "-", name.lower()).strip("-")
 
 
 def load_entries(folder: Path | None = None) -> list[dict]:
