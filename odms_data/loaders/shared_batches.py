@@ -50,6 +50,7 @@ class Arena:
     def __init__(self, lent: str | None) -> None:
         self.block = _attach(lent) if lent else None
         self.used = 0
+        self.address = np.frombuffer(self.block.buf, np.uint8).ctypes.data if self.block else 0
 
     def empty(self, shape: tuple[int, ...], dtype: np.dtype) -> np.ndarray:
         nbytes = int(np.prod(shape)) * np.dtype(dtype).itemsize
@@ -63,7 +64,7 @@ class Arena:
         """Where `a` lies in the lent block, if it is a contiguous piece of it."""
         if self.block is None or not a.flags.c_contiguous:
             return None
-        offset = a.ctypes.data - np.frombuffer(self.block.buf, np.uint8).ctypes.data
+        offset = a.ctypes.data - self.address
         return offset if 0 <= offset and offset + a.nbytes <= self.block.size else None
 
     def finish(self, batch: dict[str, np.ndarray]) -> tuple[str, Layout]:
