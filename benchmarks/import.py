@@ -36,8 +36,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from odms_data.import_odms import SPLITS, scan_split
-from odms_data.store import open_store
+from odms_data.importers.release import SPLITS, scan_split
+from odms_data.store.reader import open_store
 
 REPO = Path(__file__).resolve().parents[1]
 ARCHIVE = Path(os.environ.get("ODMS_SHARED", REPO.parent / "shared")) / "data" / "odms-v1.tar.gz"

@@ -14,8 +14,8 @@ import argparse
 
 import numpy as np
 
-from odms_data.generator import preset, render_masks, sample_example
 from odms_data.loaders.transforms import resize_masks
+from odms_data.simulate.object_model import preset, render_masks, sample_example
 
 SIZE = (112, 112)
 

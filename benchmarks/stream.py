@@ -21,10 +21,10 @@ import time
 from collections.abc import Iterable
 from pathlib import Path
 
-from odms_data.generate import generate
-from odms_data.generator import GeneratorParams, render_masks, sample_example
 from odms_data.loaders import Transform, store_batches, stream_batches
 from odms_data.loaders.sources import collate
+from odms_data.simulate.generate_store import generate
+from odms_data.simulate.object_model import GeneratorParams, render_masks, sample_example
 
 PARAMS = GeneratorParams(n_obs=10)
 
@@ -90,7 +90,7 @@ def main() -> None:
     if has_torch:
         from torch.utils.data import DataLoader
 
-        from odms_data.loaders.torch import StoreDataset, StreamDataset
+        from odms_data.loaders.torch_loader import StoreDataset, StreamDataset
 
         for workers in (1, 2):
             ds = StreamDataset(B, nb, params=PARAMS)
@@ -110,7 +110,7 @@ def main() -> None:
                 record(f"torch store -> 112x112, workers={workers}",
                        rate(DataLoader(StoreDataset(store), batch_size=B, num_workers=workers), B))
         if has_tf:
-            from odms_data.loaders.tf import from_store
+            from odms_data.loaders.tf_loader import from_store
 
             record("tf store -> 112x112, workers=2", rate(from_store(store, B, workers=2), B))
 

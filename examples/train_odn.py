@@ -19,10 +19,10 @@ import torch
 from torch import nn
 from torch.utils.data import DataLoader
 
-from odms_data.generator import GeneratorParams
 from odms_data.loaders import Transform
-from odms_data.loaders.torch import StoreDataset, StreamDataset
-from odms_data.store import open_store
+from odms_data.loaders.torch_loader import StoreDataset, StreamDataset
+from odms_data.simulate.object_model import GeneratorParams
+from odms_data.store.reader import open_store
 
 
 class ODN(nn.Module):

@@ -10,14 +10,14 @@ The library API that the `odms-data` command line is a thin layer over:
 
 __version__ = "0.1.0"
 
-from .convert import convert  # noqa: E402
 from .errors import InputError, OdmsError, StoreError  # noqa: E402
-from .generate import generate  # noqa: E402
-from .generator import PRESETS, GeneratorParams, preset  # noqa: E402
-from .import_odms import import_release  # noqa: E402
-from .import_recording import import_recording  # noqa: E402
-from .store import Example, Store, open_store  # noqa: E402
-from .validate import validate  # noqa: E402
+from .importers.recording import import_recording  # noqa: E402
+from .importers.release import import_release  # noqa: E402
+from .simulate.generate_store import generate  # noqa: E402
+from .simulate.object_model import PRESETS, GeneratorParams, preset  # noqa: E402
+from .store.convert import convert  # noqa: E402
+from .store.reader import Example, Store, open_store  # noqa: E402
+from .store.validate import validate  # noqa: E402
 
 __all__ = [
     "Example", "GeneratorParams", "InputError", "OdmsError", "PRESETS", "Store", "StoreError",

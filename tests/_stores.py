@@ -6,9 +6,9 @@ import math
 
 import numpy as np
 
-from odms_data.format import StoreAttrs
-from odms_data.masks import pack, stats_of
-from odms_data.writer import Layout, StoreWriter
+from odms_data.store.format import StoreAttrs
+from odms_data.store.masks import pack, stats_of
+from odms_data.store.writer import Layout, StoreWriter
 
 SIZE = 64
 

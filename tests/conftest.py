@@ -33,7 +33,7 @@ def official_data_dir(official_archive, tmp_path_factory) -> Path:
 @pytest.fixture(scope="session")
 def official_stores(official_data_dir, tmp_path_factory) -> dict[str, Path]:
     """The eight official splits imported once per session: split name -> store path."""
-    from odms_data.import_odms import import_release
+    from odms_data.importers.release import import_release
 
     out = tmp_path_factory.mktemp("odms-stores")
     import_release(official_data_dir, out)

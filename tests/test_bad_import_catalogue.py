@@ -13,7 +13,7 @@ import pytest
 from test_import_odms import BAD_RELEASES
 from test_import_recording import BAD_CASES, run_cli, write_recording
 
-from odms_data.store import open_store
+from odms_data.store.reader import open_store
 
 
 def _replace_csv(old: str, new: str):

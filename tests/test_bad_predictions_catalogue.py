@@ -13,7 +13,7 @@ from test_predictions import BAD
 
 from odms_data.cli import main
 from odms_data.errors import OdmsError
-from odms_data.predictions import HEADER, read_predictions
+from odms_data.evaluation.predictions import HEADER, read_predictions
 
 ROWS = [f"tiny-val,tiny-val/{i:03d},{d}" for i, d in enumerate([0.2, 0.4, 0.5, 0.8, 1.0])]
 

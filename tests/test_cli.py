@@ -10,10 +10,10 @@ from pathlib import Path
 import pytest
 from PIL import Image
 
-from odms_data.generate import generate
-from odms_data.generator import PRESETS
-from odms_data.store import open_store
-from odms_data.validate import validate
+from odms_data.simulate.generate_store import generate
+from odms_data.simulate.object_model import PRESETS
+from odms_data.store.reader import open_store
+from odms_data.store.validate import validate
 
 
 def odms(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:

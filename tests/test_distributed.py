@@ -14,10 +14,10 @@ from click.testing import CliRunner
 
 from odms_data.cli import main
 from odms_data.errors import InputError
-from odms_data.generate import ShardTask, generate, run_shard
-from odms_data.generator import preset
-from odms_data.store import open_store
-from odms_data.validate import validate
+from odms_data.simulate.generate_store import ShardTask, generate, run_shard
+from odms_data.simulate.object_model import preset
+from odms_data.store.reader import open_store
+from odms_data.store.validate import validate
 
 COUNT, SEED, PER_SHARD = 96, 11, 4  # 24 shards: enough tasks to kill a worker in the middle
 PARAMS = preset("standard", image_size=(120, 160), sizes=(30, 60))
@@ -142,7 +142,8 @@ def test_a_rerun_task_rewrites_a_half_written_shard(local_digest, tmp_path):
 
 def test_no_dask_without_a_scheduler(tmp_path):
     code = (
-        "import sys; from odms_data.generate import generate; from odms_data.generator import preset; "
+        "import sys; from odms_data.simulate.generate_store import generate; "
+        "from odms_data.simulate.object_model import preset; "
         "import odms_data.cli; "
         f"generate({str(tmp_path / 'x.zarr')!r}, 4, preset('standard', image_size=(60, 80), sizes=(20,)),"
         " 0); "

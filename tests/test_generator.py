@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from odms_data.errors import InputError
-from odms_data.generator import (
+from odms_data.simulate.object_model import (
     PRESETS,
     GeneratorParams,
     preset,
@@ -14,7 +14,7 @@ from odms_data.generator import (
     sample_example,
     spaced_points,
 )
-from odms_data.masks import stats_of
+from odms_data.store.masks import stats_of
 
 STANDARD, PERTURB = PRESETS["standard"], PRESETS["perturb"]
 

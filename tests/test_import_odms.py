@@ -11,10 +11,10 @@ import pytest
 from click.testing import CliRunner
 
 from odms_data.cli import main
-from odms_data.import_odms import SPLITS
-from odms_data.splits import load_manifest
-from odms_data.store import open_store
-from odms_data.validate import validate
+from odms_data.importers.release import SPLITS
+from odms_data.store.manifests import load_manifest
+from odms_data.store.reader import open_store
+from odms_data.store.validate import validate
 
 COUNTS = {"robot-val": 1760, "driving-val": 500, "normal-val": 2000, "perturb-val": 2000,
           "robot-test": 2640, "driving-test": 750, "normal-test": 3000, "perturb-test": 3000}

@@ -12,9 +12,9 @@ from click.testing import CliRunner
 from PIL import Image
 
 from odms_data.cli import main
-from odms_data.import_recording import import_recording
-from odms_data.store import open_store
-from odms_data.validate import validate
+from odms_data.importers.recording import import_recording
+from odms_data.store.reader import open_store
+from odms_data.store.validate import validate
 
 H, W = 48, 64
 

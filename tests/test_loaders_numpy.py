@@ -9,10 +9,10 @@ import pytest
 from loader_stores import COUNT, PARAMS, make_store
 
 from odms_data.errors import InputError
-from odms_data.generator import GeneratorParams, render_masks, sample_example
 from odms_data.loaders import GeneratedExamples, StoreExamples, Transform, store_batches, stream_batches
 from odms_data.loaders.transforms import resize_masks
-from odms_data.store import open_store
+from odms_data.simulate.object_model import GeneratorParams, render_masks, sample_example
+from odms_data.store.reader import open_store
 
 
 @pytest.fixture(scope="module", params=["zarr", "hdf5"])

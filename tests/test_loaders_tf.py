@@ -7,8 +7,8 @@ import tensorflow as tf
 from loader_stores import COUNT, make_store
 
 from odms_data.loaders import Transform, stream_batches
-from odms_data.loaders.tf import from_generator, from_store
-from odms_data.store import open_store
+from odms_data.loaders.tf_loader import from_generator, from_store
+from odms_data.store.reader import open_store
 
 
 def test_from_store(tmp_path):

@@ -8,10 +8,10 @@ import torch
 from loader_stores import COUNT, make_store
 from torch.utils.data import DataLoader
 
-from odms_data.generator import GeneratorParams
 from odms_data.loaders import Transform
-from odms_data.loaders.torch import StoreDataset, StreamDataset
-from odms_data.store import open_store
+from odms_data.loaders.torch_loader import StoreDataset, StreamDataset
+from odms_data.simulate.object_model import GeneratorParams
+from odms_data.store.reader import open_store
 
 
 def two_workers(dataset, **kwargs) -> DataLoader:

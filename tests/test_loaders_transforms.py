@@ -7,9 +7,6 @@ import numpy as np
 import pytest
 
 from odms_data.errors import InputError
-from odms_data.generator import GeneratorParams, preset, sample_example
-from odms_data.generator import render_masks as generator_render
-from odms_data.loaders.render import render_masks, render_shrunk, shrink_boxes
 from odms_data.loaders.transforms import (
     Transform,
     distances,
@@ -18,7 +15,10 @@ from odms_data.loaders.transforms import (
     radial_image,
     resize_masks,
 )
-from odms_data.masks import stats_of
+from odms_data.simulate.batch_render import render_masks, render_shrunk, shrink_boxes
+from odms_data.simulate.object_model import GeneratorParams, preset, sample_example
+from odms_data.simulate.object_model import render_masks as generator_render
+from odms_data.store.masks import stats_of
 
 
 def test_observation_indices_are_linspace_truncated():

@@ -11,7 +11,7 @@ from _stores import make_store
 from click.testing import CliRunner
 
 from odms_data.cli import main
-from odms_data.predictions import HEADER, read_predictions, write_predictions
+from odms_data.evaluation.predictions import HEADER, read_predictions, write_predictions
 
 D1 = [0.2, 0.4, 0.5, 0.8, 1.0]
 
@@ -184,7 +184,7 @@ def test_data_from_environment_variable(tmp_path, data):
 def test_schema_describes_the_columns_and_accepts_valid_rows(tmp_path):
     import jsonschema
 
-    from odms_data.predictions import COLUMNS
+    from odms_data.evaluation.predictions import COLUMNS
     from odms_data.resources import resource_dir
 
     schema = json.loads((resource_dir("schemas") / "predictions.schema.json").read_text())

@@ -11,11 +11,11 @@ from click.testing import CliRunner
 
 from odms_data.cli import main
 from odms_data.errors import InputError
-from odms_data.leaderboard import entry_problems, family_all, load_entries, render_markdown
-from odms_data.predictions import HEADER
+from odms_data.evaluation.leaderboard import entry_problems, family_all, load_entries, render_markdown
+from odms_data.evaluation.predictions import HEADER
+from odms_data.evaluation.scoring import SplitScore, percent_errors, score_split
+from odms_data.evaluation.scoring import family_all as report_all
 from odms_data.resources import resource_dir
-from odms_data.scoring import SplitScore, percent_errors, score_split
-from odms_data.scoring import family_all as report_all
 
 OFFICIAL = [f"{d}-{f}" for f in ("val", "test") for d in ("robot", "driving", "normal", "perturb")]
 

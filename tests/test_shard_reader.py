@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from odms_data.errors import StoreError
-from odms_data.generate import generate
-from odms_data.generator import preset
-from odms_data.store import open_store
+from odms_data.simulate.generate_store import generate
+from odms_data.simulate.object_model import preset
+from odms_data.store.reader import open_store
 
 
 @pytest.fixture(scope="module")

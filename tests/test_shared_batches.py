@@ -9,9 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
-from odms_data.generator import GeneratorParams
 from odms_data.loaders import Transform, stream_batches
 from odms_data.loaders.shared_batches import Arena, BlockPool
+from odms_data.simulate.object_model import GeneratorParams
 
 PARAMS = GeneratorParams(n_obs=6)
 SHM = Path("/dev/shm")

@@ -8,14 +8,14 @@ import numpy as np
 import pytest
 import zarr
 
-from odms_data.convert import convert
 from odms_data.errors import InputError, StoreError, StoreExistsError, StoreLockedError
-from odms_data.generate import generate
-from odms_data.generator import PRESETS, render_masks, sample_example
-from odms_data.masks import pack, stats_of, unpack
-from odms_data.store import open_store
-from odms_data.validate import validate
-from odms_data.writer import StoreWriter
+from odms_data.simulate.generate_store import generate
+from odms_data.simulate.object_model import PRESETS, render_masks, sample_example
+from odms_data.store.convert import convert
+from odms_data.store.masks import pack, stats_of, unpack
+from odms_data.store.reader import open_store
+from odms_data.store.validate import validate
+from odms_data.store.writer import StoreWriter
 
 PERTURB = PRESETS["perturb"]
 

@@ -10,10 +10,10 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from odms_data.errors import OdmsError
-from odms_data.generate import generate
-from odms_data.generator import PRESETS
-from odms_data.store import open_store
-from odms_data.validate import validate
+from odms_data.simulate.generate_store import generate
+from odms_data.simulate.object_model import PRESETS
+from odms_data.store.reader import open_store
+from odms_data.store.validate import validate
 
 FUZZ = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 

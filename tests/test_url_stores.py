@@ -6,9 +6,9 @@ import fsspec  # noqa: F401
 import pytest
 
 from odms_data.errors import StoreExistsError
-from odms_data.generate import generate
-from odms_data.generator import preset
-from odms_data.store import open_store
+from odms_data.simulate.generate_store import generate
+from odms_data.simulate.object_model import preset
+from odms_data.store.reader import open_store
 
 PARAMS = preset("standard", image_size=(120, 160), sizes=(30, 60))
 

@@ -8,13 +8,13 @@ from _stores import make_store
 from click.testing import CliRunner
 
 from odms_data.cli import main
-from odms_data.generate import generate
-from odms_data.generator import preset
-from odms_data.masks import mask_stats
-from odms_data.predictions import read_predictions
-from odms_data.splits import load_manifest
-from odms_data.store import open_store
-from odms_data.vosde import observation_columns, solve, vosde
+from odms_data.evaluation.predictions import read_predictions
+from odms_data.evaluation.vosde import observation_columns, solve, vosde
+from odms_data.simulate.generate_store import generate
+from odms_data.simulate.object_model import preset
+from odms_data.store.manifests import load_manifest
+from odms_data.store.masks import mask_stats
+from odms_data.store.reader import open_store
 
 # VOS-DE, n = 10, on the official splits: the released code on the released data (to 0.1).
 # Test driving is 35.76 here and in the released code; the paper prints 36.0.
@@ -152,7 +152,7 @@ def test_golden_vosde_on_the_official_splits(official, tmp_path, n_obs, golden):
 
 
 def test_official_ground_truth_scores_exactly_zero(official, tmp_path):
-    from odms_data.predictions import write_predictions
+    from odms_data.evaluation.predictions import write_predictions
 
     rows = []
     for split, path in official.items():

@@ -8,11 +8,11 @@ import os
 import click
 
 from ..errors import InputError
-from ..generate import DEFAULT_EXAMPLES_PER_SHARD
-from ..generate import generate as generate_store
-from ..generator import PRESETS, GeneratorParams
-from ..generator import preset as make_preset
-from ..splits import check_against_manifest, load_manifest
+from ..simulate.generate_store import DEFAULT_EXAMPLES_PER_SHARD
+from ..simulate.generate_store import generate as generate_store
+from ..simulate.object_model import PRESETS, GeneratorParams
+from ..simulate.object_model import preset as make_preset
+from ..store.manifests import check_against_manifest, load_manifest
 from .progress import progress
 
 

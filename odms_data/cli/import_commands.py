@@ -8,9 +8,9 @@ from pathlib import Path
 import click
 
 from ..errors import InputError
-from ..import_odms import SPLITS, import_release
-from ..import_recording import import_recording
-from ..mask_files import DEFAULT_THRESHOLD
+from ..importers.mask_files import DEFAULT_THRESHOLD
+from ..importers.recording import import_recording
+from ..importers.release import SPLITS, import_release
 from .progress import progress
 
 

@@ -9,16 +9,16 @@ from pathlib import Path
 import click
 
 from ..errors import InputError
-from ..groundtruth import DEFAULT_DATA, ENV_VAR, data_locations, find_stores, load_truth
-from ..leaderboard import entry_from_report, load_entries, render_markdown
-from ..predictions import read_predictions, write_predictions
-from ..report import render_markdown as report_markdown
-from ..report import render_text
-from ..scoring import FAMILIES, split_order
-from ..scoring import score as score_predictions
-from ..store import open_store
-from ..vosde import DEFAULT_N_OBS
-from ..vosde import vosde as run_vosde
+from ..evaluation.ground_truth import DEFAULT_DATA, ENV_VAR, data_locations, find_stores, load_truth
+from ..evaluation.leaderboard import entry_from_report, load_entries, render_markdown
+from ..evaluation.predictions import read_predictions, write_predictions
+from ..evaluation.score_tables import render_markdown as report_markdown
+from ..evaluation.score_tables import render_text
+from ..evaluation.scoring import FAMILIES, split_order
+from ..evaluation.scoring import score as score_predictions
+from ..evaluation.vosde import DEFAULT_N_OBS
+from ..evaluation.vosde import vosde as run_vosde
+from ..store.reader import open_store
 
 DATA_HELP = (f"Folder of ground-truth stores, or one store (repeatable). Default: ${ENV_VAR} "
              f"(folders separated by ':'), else {DEFAULT_DATA}.")
@@ -55,7 +55,7 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
     if bool(entry) != bool(name):
         raise InputError("--entry and --name go together: --name NAME --entry OUT.json")
     if plot:
-        from ..plots import pyplot
+        from ..evaluation.error_plots import pyplot
 
         pyplot()  # fail before scoring when matplotlib is missing
     preds = read_predictions(predictions)
@@ -69,7 +69,7 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
     else:
         click.echo(render_text(report), nl=False)
     if plot:
-        from ..plots import plot_errors
+        from ..evaluation.error_plots import plot_errors
 
         plot_errors(report, plot)
         click.echo(f"wrote {plot}", err=True)

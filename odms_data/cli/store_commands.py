@@ -7,10 +7,10 @@ import json
 import click
 import numpy as np
 
-from ..convert import convert as convert_store
-from ..sheet import contact_sheet
-from ..store import open_store
-from ..validate import validate as validate_store
+from ..store.contact_sheet import contact_sheet
+from ..store.convert import convert as convert_store
+from ..store.reader import open_store
+from ..store.validate import validate as validate_store
 from .progress import progress
 
 

@@ -18,8 +18,8 @@ from concurrent.futures import Future
 import numpy as np
 
 from ..errors import InputError
-from ..generator import GeneratorParams
-from ..worker_pool import spawn_pool
+from ..parallel import spawn_pool
+from ..simulate.object_model import GeneratorParams
 from .shared_batches import Arena, BlockPool
 from .sources import STANDARD, GeneratedExamples, StoreExamples, store_order, stream_indices
 from .transforms import PAPER_TRANSFORM, Transform

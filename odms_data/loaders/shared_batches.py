@@ -18,7 +18,7 @@ from multiprocessing.shared_memory import SharedMemory
 
 import numpy as np
 
-from ..worker_pool import uninterrupted
+from ..parallel import uninterrupted
 
 Layout = dict[str, tuple[tuple[int, ...], str, int]]  # key -> shape, dtype, byte offset in the block
 _ALIGN = 64

@@ -14,10 +14,10 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from ..errors import InputError
-from ..generator import PRESETS, GeneratorParams, sample_example
-from ..masks import unpack
-from ..store import Store, open_store
-from .render import render_masks, render_shrunk, shrink_boxes
+from ..simulate.batch_render import render_masks, render_shrunk, shrink_boxes
+from ..simulate.object_model import PRESETS, GeneratorParams, sample_example
+from ..store.masks import unpack
+from ..store.reader import Store, open_store
 from .transforms import PAPER_TRANSFORM, Transform
 
 STANDARD = PRESETS["standard"]

@@ -7,7 +7,7 @@ import math
 import numpy as np
 from PIL import Image, ImageDraw
 
-from .store import Example
+from .reader import Example
 
 THUMB_WIDTH = 240
 CAPTION = 30

@@ -6,9 +6,9 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .errors import StoreError
+from ..errors import StoreError
 from .masks import FrameStats
-from .store import open_store
+from .reader import open_store
 from .validate import BLOCK_FRAMES, recompute_digest
 from .writer import Layout, StoreWriter
 

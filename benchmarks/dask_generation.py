@@ -1,6 +1,6 @@
 """Throughput of generating on a Dask LocalCluster of 2 workers against local `--workers 2`.
 
-Run by hand: `python benchmarks/distributed.py [--count 4000] [--repeat 3]` (needs the dask
+Run by hand: `python benchmarks/dask_generation.py [--count 4000] [--repeat 3]` (needs the dask
 extra). Both configurations run `odms-data generate` in a subprocess (standard preset, n = 10,
 480x640, Zarr, default shard size), so both pay the same start-up; the LocalCluster
 (processes, 1 thread each) is started once beforehand, as a real cluster would be, and its

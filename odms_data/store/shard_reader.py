@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import StoreError
 from .backends import is_url
-from .errors import StoreError
 
 MISSING = np.uint64(2**64 - 1)
 

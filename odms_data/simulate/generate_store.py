@@ -16,13 +16,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .digest import StoreDigest, example_digest, frame_digests
-from .errors import InputError
-from .format import StoreAttrs
-from .generator import GeneratorParams, render_frame, sample_example
-from .masks import FrameStats, pack, packed_width
-from .worker_pool import spawn_pool
-from .writer import Layout, StoreWriter, write_shard_masks
+from ..errors import InputError
+from ..parallel import spawn_pool
+from ..store.digest import StoreDigest, example_digest, frame_digests
+from ..store.format import StoreAttrs
+from ..store.masks import FrameStats, pack, packed_width
+from ..store.writer import Layout, StoreWriter, write_shard_masks
+from .object_model import GeneratorParams, render_frame, sample_example
 
 DEFAULT_EXAMPLES_PER_SHARD = 128
 SOURCE = "generated"
@@ -164,7 +164,7 @@ def generate(
         if scheduler is None:
             results = _run_tasks(tasks, workers, progress)
         else:
-            from .distributed import run_tasks
+            from .dask_runner import run_tasks
 
             results = run_tasks(tasks, scheduler, progress)
         digest = StoreDigest(H, W, count)

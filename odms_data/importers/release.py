@@ -22,10 +22,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import DigestMismatchError, InputError
-from .format import StoreAttrs
-from .importing import BadFiles, Plan, Workers, build_store, protocol_windows
-from .splits import check_against_manifest, load_manifest, split_names
+from ..errors import DigestMismatchError, InputError
+from ..store.format import StoreAttrs
+from ..store.manifests import check_against_manifest, load_manifest, split_names
+from .builder import BadFiles, Plan, Workers, build_store, protocol_windows
 
 DOMAINS = ("robot", "driving", "normal", "perturb")
 SPLITS = tuple(f"{d}-{f}" for f in ("val", "test") for d in DOMAINS)

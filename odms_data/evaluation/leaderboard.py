@@ -13,9 +13,9 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
-from . import __version__
-from .errors import InputError
-from .resources import resource_dir
+from .. import __version__
+from ..errors import InputError
+from ..resources import resource_dir
 from .scoring import DOMAINS, FAMILIES, ScoreReport, official_name
 
 UNITS = {"robot": "cm", "driving": "m", "normal": "cm", "perturb": "cm"}

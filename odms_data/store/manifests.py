@@ -6,9 +6,9 @@ import json
 from dataclasses import dataclass
 from typing import Any
 
-from .errors import DigestMismatchError, InputError
+from ..errors import DigestMismatchError, InputError
+from ..resources import resource_dir
 from .format import StoreAttrs
-from .resources import resource_dir
 
 
 @dataclass(frozen=True)

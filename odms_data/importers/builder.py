@@ -20,14 +20,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .digest import StoreDigest, example_digest, frame_digests
-from .errors import InputError
-from .format import StoreAttrs
+from ..errors import InputError
+from ..parallel import spawn_pool
+from ..store.digest import StoreDigest, example_digest, frame_digests
+from ..store.format import StoreAttrs
+from ..store.masks import FrameStats, pack, packed_width
+from ..store.validate import Z_ODDITY
+from ..store.writer import Layout, StoreWriter, write_shard_masks
 from .mask_files import DEFAULT_THRESHOLD, image_size, read_mask
-from .masks import FrameStats, pack, packed_width
-from .validate import Z_ODDITY
-from .worker_pool import spawn_pool
-from .writer import Layout, StoreWriter, write_shard_masks
 
 TINY_Z_STEP = 1e-4  # m; steps below this (but above 0) are recorded as an oddity
 

@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError, StoreError
-from .store import open_store
+from ..errors import InputError, StoreError
+from ..store.reader import open_store
 
 ENV_VAR = "ODMS_DATA"
 DEFAULT_DATA = "~/.cache/odms-data"

@@ -9,10 +9,10 @@ from typing import Any
 
 import numpy as np
 
-from . import __version__
-from .errors import StoreError
+from .. import __version__
+from ..errors import StoreError
+from ..resources import resource_dir
 from .masks import packed_width
-from .resources import resource_dir
 
 FORMAT_VERSION = 1
 ATTRS_KEY = "odms"

@@ -17,11 +17,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
-from .format import StoreAttrs
-from .importing import BadFiles, Plan, Workers, build_store, protocol_windows
+from ..errors import InputError
+from ..store.format import StoreAttrs
+from ..store.manifests import split_names
+from .builder import BadFiles, Plan, Workers, build_store, protocol_windows
 from .mask_files import DEFAULT_THRESHOLD, is_mask_file
-from .splits import split_names
 
 COLUMNS = ("frame", "z", "depth")
 FRAMES_PER_CHUNK = 32

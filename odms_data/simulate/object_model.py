@@ -14,7 +14,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from .errors import InputError
+from ..errors import InputError
 
 cv2.setNumThreads(1)
 _CROSS = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))

@@ -17,8 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import InputError, StoreExistsError, StoreLockedError
 from .backends import GZIP_LEVEL, Backend, detect_format, is_url, open_backend, storage_options
-from .errors import InputError, StoreExistsError, StoreLockedError
 from .format import EXAMPLE_ARRAYS, FRAME_ARRAYS, StoreAttrs, encode_strings
 from .masks import FrameStats, packed_width
 

@@ -27,8 +27,8 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
-from ..generator import _CROSS, _SHIFT, ExampleSpec, GeneratorParams, render_frame
-from .transforms import resize_masks
+from ..loaders.transforms import resize_masks
+from .object_model import _CROSS, _SHIFT, ExampleSpec, GeneratorParams, render_frame
 
 cv2.setNumThreads(1)
 

@@ -8,8 +8,8 @@ from functools import cached_property
 
 import numpy as np
 
+from ..errors import InputError, StoreError
 from .backends import Backend, open_backend
-from .errors import InputError, StoreError
 from .format import EXAMPLE_ARRAYS, FRAME_ARRAYS, StoreAttrs, decode_strings, layout_problems
 from .masks import unpack
 from .shard_reader import ShardReader

@@ -11,8 +11,8 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from .errors import StoreError
-from .groundtruth import SplitTruth
+from ..errors import StoreError
+from .ground_truth import SplitTruth
 from .predictions import Predictions, check_against
 
 DOMAINS = ("robot", "driving", "normal", "perturb")

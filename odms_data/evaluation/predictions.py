@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .errors import InputError
+from ..errors import InputError
 
 COLUMNS = ("split", "example_id", "d1")
 HEADER = ",".join(COLUMNS)

@@ -18,8 +18,8 @@ import os
 from collections.abc import Callable, Iterator
 from typing import Any
 
-from .errors import InputError, StoreError
-from .generate import ShardResult, ShardTask, run_shard
+from ..errors import InputError, StoreError
+from .generate_store import ShardResult, ShardTask, run_shard
 
 RETRIES = 3  # reruns of a task that raised
 CONNECT_TIMEOUT_S = 30

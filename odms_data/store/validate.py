@@ -8,13 +8,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import InputError, OdmsError
 from .backends import open_backend
 from .digest import StoreDigest, example_digest, frame_digests
-from .errors import InputError, OdmsError
 from .format import EXAMPLE_ARRAYS, FRAME_ARRAYS, attribute_problems, layout_problems
+from .manifests import load_manifest, split_names
 from .masks import mask_stats, packed_width, unpack
-from .splits import load_manifest, split_names
-from .store import Store, open_store
+from .reader import Store, open_store
 
 BLOCK_FRAMES = 1024
 Z_ODDITY = "z-not-increasing"

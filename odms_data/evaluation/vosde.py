@@ -28,8 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import InputError
-from .store import Store
+from ..errors import InputError
+from ..store.reader import Store
 
 DEFAULT_N_OBS = 10
 
