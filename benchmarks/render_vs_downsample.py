@@ -14,8 +14,9 @@ import argparse
 
 import numpy as np
 
-from odms_data.loaders.transforms import resize_masks
-from odms_data.simulate.object_model import preset, render_masks, sample_example
+from odms_data.simulate.object_model import preset, sample_example
+from odms_data.simulate.render import render_masks
+from odms_data.simulate.shrink import resize_masks
 
 SIZE = (112, 112)
 

@@ -5,7 +5,7 @@ and with 1 and 2 worker processes, and a store read through each loader.
 
 "112x112" streams masks equal to a store's shrunk to 112x112 (the default); "direct" draws them
 straight at 112x112 (GeneratedExamples(direct=True)). The baseline, measured in the same run, is
-the naive streaming path: draw each mask at 480x640 with generator.render_masks and shrink it to
+the naive streaming path: draw each mask at 480x640 with render.render_masks and shrink it to
 112x112. Timing starts when the first batch arrives, so worker start-up is left out; the first
 batch is not counted.
 """
@@ -24,7 +24,8 @@ from pathlib import Path
 from odms_data.loaders import Transform, store_batches, stream_batches
 from odms_data.loaders.sources import collate
 from odms_data.simulate.generate_store import generate
-from odms_data.simulate.object_model import GeneratorParams, render_masks, sample_example
+from odms_data.simulate.object_model import GeneratorParams, sample_example
+from odms_data.simulate.render import render_masks
 
 PARAMS = GeneratorParams(n_obs=10)
 

@@ -10,10 +10,10 @@ from odms_data.simulate.object_model import (
     PRESETS,
     GeneratorParams,
     preset,
-    render_masks,
     sample_example,
     spaced_points,
 )
+from odms_data.simulate.render import render_masks
 from odms_data.store.masks import stats_of
 
 STANDARD, PERTURB = PRESETS["standard"], PRESETS["perturb"]

@@ -15,9 +15,10 @@ from odms_data.loaders.transforms import (
     radial_image,
     resize_masks,
 )
-from odms_data.simulate.batch_render import render_masks, render_shrunk, shrink_boxes
+from odms_data.simulate.batch_render import render_masks, render_shrunk
 from odms_data.simulate.object_model import GeneratorParams, preset, sample_example
-from odms_data.simulate.object_model import render_masks as generator_render
+from odms_data.simulate.render import render_masks as generator_render
+from odms_data.simulate.shrink import shrink_boxes
 from odms_data.store.masks import stats_of
 
 

@@ -14,8 +14,9 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from ..errors import InputError
-from ..simulate.batch_render import render_masks, render_shrunk, shrink_boxes
+from ..simulate.batch_render import render_masks, render_shrunk
 from ..simulate.object_model import PRESETS, GeneratorParams, sample_example
+from ..simulate.shrink import shrink_boxes
 from ..store.masks import unpack
 from ..store.reader import Store, open_store
 from .transforms import PAPER_TRANSFORM, Transform
@@ -129,7 +130,7 @@ class GeneratedExamples:
         return {key: a[0] for key, a in self.batch([index]).items()}
 
     def batch(self, indices: Sequence[int], empty: Empty = np.empty) -> dict[str, np.ndarray]:
-        """The examples at generator `indices`, drawn together (render.py) into arrays made by
+        """The examples at generator `indices`, drawn together (simulate.batch_render) into arrays made by
         `empty`, a few dozen examples at a time."""
         p, t, chosen = self.params, self.transform, self._chosen
         specs = [sample_example(p, self.seed, int(i)) for i in indices]

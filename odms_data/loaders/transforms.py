@@ -24,6 +24,7 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
+from ..simulate.shrink import resize_masks
 
 cv2.setNumThreads(1)
 
@@ -36,21 +37,6 @@ def observation_indices(n: int, n_obs: int) -> np.ndarray:
     if not 2 <= n_obs <= n:
         raise InputError(f"need 2 <= n_obs <= n, got n_obs={n_obs} for an example of {n} frames")
     return np.linspace(0, n - 1, n_obs).astype(np.int64)
-
-
-def resize_masks(masks: np.ndarray, size: tuple[int, int], coverage: bool = False) -> np.ndarray:
-    """(k, H, W) binary masks to (k, h, w) with cv2 INTER_AREA: uint8 0/1 (the covered fraction
-    rounded) or, with `coverage`, float32 fractions."""
-    h, w = size
-    k, H, W = masks.shape
-    dtype = np.float32 if coverage else np.uint8
-    m = masks.astype(dtype, copy=False)
-    if (H, W) == (h, w):
-        return m
-    out = np.empty((k, h, w), dtype)
-    for i in range(k):
-        out[i] = cv2.resize(m[i], (w, h), interpolation=cv2.INTER_AREA)
-    return out
 
 
 def distances(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -1,16 +1,13 @@
 """Fast paths for masks at training size, for many examples at once, each pixel-exact against
-the slow way.
+the slow way (render.py, shrink.py).
 
-- `render_masks`: what `generator.render_masks(spec, params, size)` draws (the contour drawn
+- `render_masks`: what `render.render_masks(spec, params, size)` draws (the contour drawn
   straight at the small size).
-- `render_shrunk`: what `resize_masks(generator.render_masks(spec, params), size)` gives (the
+- `render_shrunk`: what `resize_masks(render.render_masks(spec, params), size)` gives (the
   full-size mask shrunk with INTER_AREA, as a store read through the loaders), drawing only each
-  object's box at full size: cv2's INTER_AREA weights depend only on the scale, so a crop whose
-  edges fall on a whole period of the input/output pixel grids (40 input columns per 7 output
-  ones for 640 -> 112) shrinks to exactly the same pixels as the full frame.
-- `shrink_boxes`: the same shortcut for stored masks, whose boxes the store records.
+  object's box at full size (see shrink.py for why that gives the same pixels).
 
-The per-frame arithmetic of `generator.render_frame` is done once for all frames of all examples,
+The per-frame arithmetic of `render.render_frame` is done once for all frames of all examples,
 in the same order of operations (so the same floats), and frames are stacked as rows of one
 image so that a single cv2.fillPoly call draws them all: no scanline meets two frames' polygons.
 Frames where a shortcut would not hold (a box leaving the image) go through render_frame.
@@ -19,7 +16,6 @@ tests/test_loaders_transforms.py checks equality with the slow way.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -27,8 +23,9 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
-from ..loaders.transforms import resize_masks
-from .object_model import _CROSS, _SHIFT, ExampleSpec, GeneratorParams, render_frame
+from .object_model import ExampleSpec, GeneratorParams
+from .render import CROSS, SHIFT, render_frame
+from .shrink import periods_of, resize_masks, shrink_into
 
 cv2.setNumThreads(1)
 
@@ -46,7 +43,7 @@ class _Geometry:
 
     def polygons(self, offsets: np.ndarray) -> list[np.ndarray]:
         """Every frame's vertices, moved by its (x, y) pixel offset (offsets: (F, 2))."""
-        shift = np.repeat((offsets << _SHIFT).astype(np.int32), np.diff(self.starts), axis=0)
+        shift = np.repeat((offsets << SHIFT).astype(np.int32), np.diff(self.starts), axis=0)
         return np.split(self.fixed + shift, self.starts[1:-1])
 
 
@@ -72,7 +69,7 @@ def _geometry(
     lo = np.floor(np.minimum.reduceat(poly, starts[:-1], axis=0)).astype(np.int64) - (k + 1)[:, None]
     hi = np.ceil(np.maximum.reduceat(poly, starts[:-1], axis=0)).astype(np.int64) + (k + 2)[:, None]
     poly -= np.repeat(lo, lengths, axis=0)
-    poly *= 1 << _SHIFT
+    poly *= 1 << SHIFT
     fixed = np.rint(poly, out=poly).astype(np.int32)
     return _Geometry(fixed, starts, lo, hi, k, perturb >= 0)
 
@@ -101,7 +98,7 @@ def render_masks(
     frames: np.ndarray | None = None,
     out: np.ndarray | None = None,
 ) -> np.ndarray:
-    """(examples, k, H, W) uint8 0/1: `generator.render_masks(spec, params, size)[frames]` of each
+    """(examples, k, H, W) uint8 0/1: `render.render_masks(spec, params, size)[frames]` of each
     example (frames default: all), written into `out` when given."""
     H, W = size or params.image_size
     frames = _frames(specs, frames)
@@ -112,50 +109,10 @@ def render_masks(
     if inside.any():  # frame f is rows f * H ... of out seen as one (examples * k * H, W) image
         rows = np.arange(len(inside)) * H
         polygons = g.polygons(g.lo + np.stack([np.zeros_like(rows), rows], axis=1))
-        cv2.fillPoly(out.reshape(-1, W), [polygons[f] for f in np.flatnonzero(inside)], 1, cv2.LINE_8, _SHIFT)
+        cv2.fillPoly(out.reshape(-1, W), [polygons[f] for f in np.flatnonzero(inside)], 1, cv2.LINE_8, SHIFT)
     for f in np.flatnonzero(~inside):
         e, j = divmod(int(f), n)
         render_frame(specs[e], params, int(frames[j]), out[e, j])
-    return out
-
-
-def _aligned(a: int, b: int, period: int) -> tuple[int, int]:
-    """[a, b) widened to multiples of period."""
-    return a // period * period, -(-b // period) * period
-
-
-def _periods(full: tuple[int, int], size: tuple[int, int]) -> tuple[int, int, int, int]:
-    """Input and output pixels per period of INTER_AREA's grid: rows py -> qy, columns px -> qx."""
-    (H0, W0), (h, w) = full, size
-    gy, gx = math.gcd(H0, h), math.gcd(W0, w)
-    return H0 // gy, h // gy, W0 // gx, w // gx
-
-
-def _shrink_into(out: np.ndarray, crop: np.ndarray, X0: int, Y0: int, periods: tuple) -> None:
-    """Write the INTER_AREA shrink of `crop`, the aligned region at (X0, Y0) of a full frame, into
-    its place in `out`, the shrunk frame."""
-    py, qy, px, qx = periods
-    oy0, ox0 = Y0 // py * qy, X0 // px * qx
-    oh, ow = crop.shape[0] // py * qy, crop.shape[1] // px * qx
-    out[oy0 : oy0 + oh, ox0 : ox0 + ow] = cv2.resize(crop, (ow, oh), interpolation=cv2.INTER_AREA)
-
-
-def shrink_boxes(masks: np.ndarray, boxes: np.ndarray, size: tuple[int, int], coverage: bool = False):
-    """`resize_masks(masks, size, coverage)` for (k, H, W) masks whose objects lie inside `boxes`
-    (k, 4: x0, y0, x1, y1 half-open, as stored): only each box, widened to the grid, is shrunk."""
-    k, H0, W0 = masks.shape
-    if size[0] > H0 or size[1] > W0:
-        return resize_masks(masks, size, coverage)
-    out = np.zeros((k, *size), np.float32 if coverage else np.uint8)
-    periods = _periods((H0, W0), size)
-    py, _, px, _ = periods
-    for j, (x0, y0, x1, y1) in enumerate(np.asarray(boxes, np.int64)):
-        if x0 >= x1 or y0 >= y1:
-            continue
-        X0, X1 = _aligned(x0, x1, px)
-        Y0, Y1 = _aligned(y0, y1, py)
-        crop = masks[j, Y0:Y1, X0:X1].astype(out.dtype)
-        _shrink_into(out[j], crop, X0, Y0, periods)
     return out
 
 
@@ -167,7 +124,7 @@ def render_shrunk(
     coverage: bool = False,
     out: np.ndarray | None = None,
 ) -> np.ndarray:
-    """(examples, k, h, w): `resize_masks(generator.render_masks(spec, params)[frames], size,
+    """(examples, k, h, w): `resize_masks(render.render_masks(spec, params)[frames], size,
     coverage)` of each example, written into `out` when given.
 
     Each frame's box, widened to whole periods of the INTER_AREA grid, becomes a tile. Tiles of
@@ -187,7 +144,7 @@ def render_shrunk(
         out[...] = shrunk
         return out
     out = _out(out, (len(specs), n, h, w), dtype).reshape(-1, h, w)
-    periods = py, qy, px, qx = _periods((H0, W0), size)
+    periods = py, qy, px, qx = periods_of((H0, W0), size)
     g = _geometry(specs, params, frames, (H0, W0))
     clip_lo, clip_hi = np.maximum(g.lo, 0), np.minimum(g.hi, [W0, H0])
     tile_lo = clip_lo // [px, py] * [px, py]
@@ -209,11 +166,11 @@ def render_shrunk(
         canvas = np.zeros((int(top[b - 1] + heights[b - 1]), width), np.uint8)
         # render_frame's canvas lies inside the tile with an empty margin, so drawing and
         # perturbing on the tile gives the same pixels as on the canvas
-        cv2.fillPoly(canvas, [polygons[f] for f in tiles], 1, cv2.LINE_8, _SHIFT)
+        cv2.fillPoly(canvas, [polygons[f] for f in tiles], 1, cv2.LINE_8, SHIFT)
         for t in np.flatnonzero(g.k[tiles]) + a:
             band = canvas[top[t] : top[t] + heights[t]]
             op = cv2.dilate if g.dilate[tiled[t]] else cv2.erode
-            band[...] = op(band, _CROSS, iterations=int(g.k[tiled[t]]))
+            band[...] = op(band, CROSS, iterations=int(g.k[tiled[t]]))
         ow = width // px * qx
         small = cv2.resize(canvas.astype(dtype, copy=False), (ow, len(canvas) // py * qy),
                            interpolation=cv2.INTER_AREA)
@@ -225,10 +182,10 @@ def render_shrunk(
         (x0, y0), (x1, y1), (X0, Y0), (X1, Y1) = g.lo[f], g.hi[f], tile_lo[f], tile_hi[f]
         (cx0, cy0), (cx1, cy1) = clip_lo[f], clip_hi[f]
         canvas = np.zeros((y1 - y0, x1 - x0), np.uint8)
-        cv2.fillPoly(canvas, [g.fixed[g.starts[f] : g.starts[f + 1]]], 1, cv2.LINE_8, _SHIFT)
+        cv2.fillPoly(canvas, [g.fixed[g.starts[f] : g.starts[f + 1]]], 1, cv2.LINE_8, SHIFT)
         if g.k[f]:
-            canvas = (cv2.dilate if g.dilate[f] else cv2.erode)(canvas, _CROSS, iterations=int(g.k[f]))
+            canvas = (cv2.dilate if g.dilate[f] else cv2.erode)(canvas, CROSS, iterations=int(g.k[f]))
         crop = np.zeros((Y1 - Y0, X1 - X0), dtype)
         crop[cy0 - Y0 : cy1 - Y0, cx0 - X0 : cx1 - X0] = canvas[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0]
-        _shrink_into(out[f], crop, int(X0), int(Y0), periods)
+        shrink_into(out[f], crop, int(X0), int(Y0), periods)
     return out.reshape(len(specs), n, h, w)

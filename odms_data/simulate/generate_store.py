@@ -1,5 +1,5 @@
 """Generating a store: shard-aligned tasks, run in-process, on a pool of worker processes or on a
-Dask cluster (odms_data.distributed, imported only when a scheduler is given).
+Dask cluster (dask_runner.py, imported only when a scheduler is given).
 
 A task makes the examples of one shard, writes their masks (Zarr: straight into the shard;
 HDF5: returns deflated chunks for the parent to store) and returns the small per-frame and
@@ -22,7 +22,8 @@ from ..store.digest import StoreDigest, example_digest, frame_digests
 from ..store.format import StoreAttrs
 from ..store.masks import FrameStats, pack, packed_width
 from ..store.writer import Layout, StoreWriter, write_shard_masks
-from .object_model import GeneratorParams, render_frame, sample_example
+from .object_model import GeneratorParams, sample_example
+from .render import render_frame
 
 DEFAULT_EXAMPLES_PER_SHARD = 128
 SOURCE = "generated"
