@@ -6,20 +6,50 @@ The library API that the `odms-data` command line is a thin layer over:
     odms_data.generate("train.zarr", 10_000, odms_data.preset("perturb"), seed=7, workers=2)
     with odms_data.open_store("train.zarr") as store:
         example = store.example(0)        # masks (n, H, W) bool, z, depth, d1, ...
+
+The names below are loaded on first use, so `import odms_data` costs almost nothing; the layers
+they come from (store/, simulate/, importers/, evaluation/, loaders/, cli/) are described in
+their folders' docstrings.
 """
 
-__version__ = "0.1.0"
+from __future__ import annotations
 
-from .errors import InputError, OdmsError, StoreError  # noqa: E402
-from .importers.recording import import_recording  # noqa: E402
-from .importers.release import import_release  # noqa: E402
-from .simulate.generate_store import generate  # noqa: E402
-from .simulate.object_model import PRESETS, GeneratorParams, preset  # noqa: E402
-from .store.convert import convert  # noqa: E402
-from .store.reader import Example, Store, open_store  # noqa: E402
-from .store.validate import validate  # noqa: E402
+from importlib import import_module
+from typing import TYPE_CHECKING, Any
 
+from ._version import __version__
+
+_EXPORTS = {
+    "Example": "store.reader", "Store": "store.reader", "open_store": "store.reader",
+    "convert": "store.convert", "validate": "store.validate",
+    "InputError": "errors", "OdmsError": "errors", "StoreError": "errors",
+    "GeneratorParams": "simulate.object_model", "PRESETS": "simulate.object_model",
+    "preset": "simulate.object_model", "generate": "simulate.generate_store",
+    "import_release": "importers.release", "import_recording": "importers.recording",
+}
 __all__ = [
-    "Example", "GeneratorParams", "InputError", "OdmsError", "PRESETS", "Store", "StoreError",
+    "PRESETS", "Example", "GeneratorParams", "InputError", "OdmsError", "Store", "StoreError", "__version__",
     "convert", "generate", "import_recording", "import_release", "open_store", "preset", "validate",
 ]
+
+if TYPE_CHECKING:
+    from .errors import InputError, OdmsError, StoreError
+    from .importers.recording import import_recording
+    from .importers.release import import_release
+    from .simulate.generate_store import generate
+    from .simulate.object_model import PRESETS, GeneratorParams, preset
+    from .store.convert import convert
+    from .store.reader import Example, Store, open_store
+    from .store.validate import validate
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _EXPORTS:
+        raise AttributeError(f"module 'odms_data' has no attribute {name!r}")
+    value = getattr(import_module(f".{_EXPORTS[name]}", __name__), name)
+    globals()[name] = value  # later lookups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_EXPORTS))

@@ -8,10 +8,11 @@ from pathlib import Path
 
 import pytest
 
+from odms_data.benchmark import OFFICIAL_SPLITS
+
 REPO = Path(__file__).resolve().parents[1]
 SHARED = Path(os.environ.get("ODMS_SHARED", REPO.parent / "shared"))
 ARCHIVE = SHARED / "data" / "odms-v1.tar.gz"
-OFFICIAL_SPLITS = [f"{s}-{f}" for f in ("val", "test") for s in ("robot", "driving", "normal", "perturb")]
 
 
 @pytest.fixture(scope="session")

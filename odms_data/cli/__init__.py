@@ -8,10 +8,11 @@ Set ODMS_DEBUG=1 to see the traceback of an unexpected error.
 from __future__ import annotations
 
 import os
+from importlib import import_module
 
 import click
 
-from .. import __version__
+from .._version import __version__
 from ..errors import OdmsError
 
 
@@ -19,7 +20,29 @@ def one_line(message: object) -> str:
     return " ".join(str(message).split())
 
 
+COMMANDS = {  # command name -> (module of this package, attribute): imported only when used
+    "generate": ("generate_command", "generate"),
+    "import": ("import_commands", "import_group"),
+    "validate": ("store_commands", "validate"),
+    "info": ("store_commands", "info"),
+    "convert": ("store_commands", "convert"),
+    "show": ("store_commands", "show"),
+    "score": ("score_commands", "score"),
+    "baseline": ("score_commands", "baseline"),
+    "leaderboard": ("score_commands", "leaderboard"),
+}
+
+
 class OdmsGroup(click.Group):
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted(COMMANDS)
+
+    def get_command(self, ctx: click.Context, name: str) -> click.Command | None:
+        if name not in COMMANDS:
+            return None
+        module, attribute = COMMANDS[name]
+        return getattr(import_module(f".{module}", __name__), attribute)
+
     def invoke(self, ctx: click.Context):
         try:
             return super().invoke(ctx)
@@ -52,15 +75,3 @@ def main() -> None:
       odms-data generate --split sim-val -o sim-val.zarr
       odms-data info sim-val.zarr
     """
-
-
-def _register() -> None:
-    from . import generate_command, import_commands, score_commands, store_commands
-
-    main.add_command(generate_command.generate)
-    main.add_command(import_commands.import_group)
-    for cmd in store_commands.COMMANDS + score_commands.COMMANDS:
-        main.add_command(cmd)
-
-
-_register()

@@ -7,10 +7,11 @@ from pathlib import Path
 
 import click
 
+from ..benchmark import OFFICIAL_SPLITS
 from ..errors import InputError
 from ..importers.mask_files import DEFAULT_THRESHOLD
 from ..importers.recording import import_recording
-from ..importers.release import SPLITS, import_release
+from ..importers.release import import_release
 from .progress import progress
 
 
@@ -74,7 +75,7 @@ def import_group() -> None:
 @click.argument("data_dir", type=click.Path())
 @click.option("-o", "--output", "out_dir", type=click.Path(), required=True,
               help="Folder for the stores <split>.zarr (or .h5).")
-@click.option("--split", "splits", multiple=True, type=click.Choice(SPLITS),
+@click.option("--split", "splits", multiple=True, type=click.Choice(OFFICIAL_SPLITS),
               help="Import only this split (repeatable; default: all eight).")
 @click.option("--format", "fmt", type=click.Choice(["zarr", "hdf5"]), default="zarr", show_default=True,
               help="Store backend.")

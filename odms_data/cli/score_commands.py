@@ -8,14 +8,9 @@ from pathlib import Path
 
 import click
 
+from ..benchmark import FAMILIES, split_order
 from ..errors import InputError
 from ..evaluation.ground_truth import DEFAULT_DATA, ENV_VAR, data_locations, find_stores, load_truth
-from ..evaluation.leaderboard import entry_from_report, load_entries, render_markdown
-from ..evaluation.predictions import read_predictions, write_predictions
-from ..evaluation.score_tables import render_markdown as report_markdown
-from ..evaluation.score_tables import render_text
-from ..evaluation.scoring import FAMILIES, split_order
-from ..evaluation.scoring import score as score_predictions
 from ..evaluation.vosde import DEFAULT_N_OBS
 from ..evaluation.vosde import vosde as run_vosde
 from ..store.reader import open_store
@@ -50,6 +45,11 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
       odms-data score preds.csv --markdown --plot errors.png
       odms-data score preds.csv --name MyNet --entry leaderboard/mynet.json
     """
+    from ..evaluation.leaderboard import entry_from_report
+    from ..evaluation.predictions import read_predictions
+    from ..evaluation.score_tables import render_markdown, render_text
+    from ..evaluation.scoring import score as score_predictions
+
     if as_json and markdown:
         raise InputError("give at most one of --json and --markdown")
     if bool(entry) != bool(name):
@@ -65,7 +65,7 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
     if as_json:
         click.echo(json.dumps(report.to_json(), indent=2))
     elif markdown:
-        click.echo(report_markdown(report), nl=False)
+        click.echo(render_markdown(report), nl=False)
     else:
         click.echo(render_text(report), nl=False)
     if plot:
@@ -104,6 +104,8 @@ def vosde(stores, data, n_obs, output):
       odms-data baseline vosde robot-test driving-test --n-obs 5 -o vosde5.csv
       odms-data baseline vosde sim-val.zarr -o sim.csv && odms-data score sim.csv --data sim-val.zarr
     """
+    from ..evaluation.predictions import write_predictions
+
     paths = []
     found = None
     for s in stores:
@@ -147,7 +149,6 @@ def leaderboard(family, metric, folder):
       odms-data leaderboard
       odms-data leaderboard --family val --metric abs
     """
+    from ..evaluation.leaderboard import load_entries, render_markdown
+
     click.echo(render_markdown(load_entries(folder), family, metric), nl=False)
-
-
-COMMANDS = [score, baseline, leaderboard]

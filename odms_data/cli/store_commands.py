@@ -7,7 +7,6 @@ import json
 import click
 import numpy as np
 
-from ..store.contact_sheet import contact_sheet
 from ..store.convert import convert as convert_store
 from ..store.reader import open_store
 from ..store.validate import validate as validate_store
@@ -115,9 +114,8 @@ def show(store, example_id, output):
     Example:
       odms-data show sim-val.zarr sim-val/000042 -o sheet.png
     """
+    from ..store.contact_sheet import contact_sheet
+
     with open_store(store) as s:
         contact_sheet(s.example(example_id)).save(output)
     click.echo(f"wrote {output}")
-
-
-COMMANDS = [validate, info, convert, show]

@@ -13,12 +13,11 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
-from .. import __version__
+from .._version import __version__
+from ..benchmark import ABS_UNITS, FAMILIES, OFFICIAL_DOMAINS, official_name
 from ..errors import InputError
 from ..resources import resource_dir
-from .scoring import DOMAINS, FAMILIES, ScoreReport, official_name
-
-UNITS = {"robot": "cm", "driving": "m", "normal": "cm", "perturb": "cm"}
+from .scoring import ScoreReport
 
 
 @cache
@@ -65,8 +64,8 @@ def family_all(entry: dict, family: str) -> float | None:
     fam = entry["results"].get(family, {})
     if "all" in fam:
         return fam["all"]
-    if all(d in fam for d in DOMAINS):
-        return sum(fam[d]["percent"] for d in DOMAINS) / len(DOMAINS)
+    if all(d in fam for d in OFFICIAL_DOMAINS):
+        return sum(fam[d]["percent"] for d in OFFICIAL_DOMAINS) / len(OFFICIAL_DOMAINS)
     return None
 
 
@@ -84,10 +83,10 @@ def render_markdown(entries: list[dict], family: str = "test", metric: str = "pe
         return (a is None, a if a is not None else 0.0, e["name"])
 
     if metric == "percent":
-        heads = [d.capitalize() for d in DOMAINS] + ["All"]
+        heads = [d.capitalize() for d in OFFICIAL_DOMAINS] + ["All"]
         title = f"Mean percent error, ODMS {family} sets (lower is better)"
     else:
-        heads = [f"{d.capitalize()} ({UNITS[d]})" for d in DOMAINS]
+        heads = [f"{d.capitalize()} ({ABS_UNITS[d]})" for d in OFFICIAL_DOMAINS]
         title = f"Mean absolute error, ODMS {family} sets (lower is better; sorted by percent All)"
     lines = [
         f"{title}", "",
@@ -101,13 +100,13 @@ def render_markdown(entries: list[dict], family: str = "test", metric: str = "pe
             continue
         rank += 1
         if metric == "percent":
-            cells = [_cell(fam[d]["percent"]) if d in fam else "–" for d in DOMAINS]
+            cells = [_cell(fam[d]["percent"]) if d in fam else "–" for d in OFFICIAL_DOMAINS]
             cells.append(_cell(family_all(e, family)))
         else:
             scale = {"m": 1.0, "cm": 100.0}
             cells = [
-                _cell(fam[d]["abs_m"] * scale[UNITS[d]]) if "abs_m" in fam.get(d, {}) else "–"
-                for d in DOMAINS
+                _cell(fam[d]["abs_m"] * scale[ABS_UNITS[d]]) if "abs_m" in fam.get(d, {}) else "–"
+                for d in OFFICIAL_DOMAINS
             ]
         name = f"[{e['name']}]({e['link']})" if e.get("link") else e["name"]
         n = str(e["n_obs"]) if e.get("n_obs") else "–"

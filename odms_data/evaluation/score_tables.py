@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from .scoring import FAMILIES, ScoreReport
+from ..benchmark import FAMILIES
+from .scoring import ScoreReport
 
 
 def _banner(report: ScoreReport) -> list[str]:

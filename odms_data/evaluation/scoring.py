@@ -11,23 +11,15 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from ..benchmark import ABS_UNITS, FAMILIES, OFFICIAL_DOMAINS, official_name, split_order
 from ..errors import StoreError
 from .ground_truth import SplitTruth
 from .predictions import Predictions, check_against
-
-DOMAINS = ("robot", "driving", "normal", "perturb")
-FAMILIES = ("val", "test")
 
 
 def percent_errors(pred: np.ndarray, truth: np.ndarray) -> np.ndarray:
     """|truth - pred| / truth * 100, elementwise."""
     return np.abs(truth - pred) / truth * 100.0
-
-
-def official_name(split: str, domain: str) -> tuple[str, str] | None:
-    """(domain, family) when `split` is one of the eight official splits and holds that domain."""
-    d, _, fam = split.partition("-")
-    return (d, fam) if d in DOMAINS and fam in FAMILIES and d == domain else None
 
 
 @dataclass
@@ -47,7 +39,7 @@ class SplitScore:
     @property
     def abs_unit(self) -> str:
         """The unit the paper prints absolute errors in: m for driving, cm otherwise."""
-        return "m" if self.domain == "driving" else "cm"
+        return ABS_UNITS.get(self.domain, "cm")
 
     @property
     def mean_abs_error(self) -> float:
@@ -73,7 +65,7 @@ def family_all(scores: list[SplitScore]) -> dict[str, float]:
     full = {official_name(s.split, s.domain): s for s in scores if not s.partial}
     out = {}
     for fam in FAMILIES:
-        parts = [full.get((d, fam)) for d in DOMAINS]
+        parts = [full.get((d, fam)) for d in OFFICIAL_DOMAINS]
         if all(parts):
             out[fam] = float(np.mean([p.mean_percent_error for p in parts]))
     return out
@@ -134,11 +126,3 @@ def score(preds: Predictions, truths: dict[str, SplitTruth], *, allow_partial: b
         partial=any(s.partial for s in scores), unlabelled_ignored=ignored,
         digests={s.split: truths[s.split].digest for s in scores}, errors=errors,
     )
-
-
-def split_order(split: str) -> tuple:
-    """Official splits first (val before test, then robot, driving, normal, perturb), then by name."""
-    d, _, fam = split.partition("-")
-    if d in DOMAINS and fam in FAMILIES:
-        return (0, FAMILIES.index(fam), DOMAINS.index(d), "")
-    return (1, 0, 0, split)

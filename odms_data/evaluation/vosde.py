@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..benchmark import evenly_spaced
 from ..errors import InputError
 from ..store.reader import Store
 
@@ -52,7 +53,7 @@ def observation_columns(n: int, n_obs: int) -> np.ndarray:
     """Which of n observations VOS-DE uses: all when n <= n_obs, else n_obs evenly spaced."""
     if n <= n_obs:
         return np.arange(n)
-    return np.linspace(0, n - 1, n_obs).astype(np.int64)
+    return evenly_spaced(0, n - 1, n_obs)
 
 
 def solve(sqrt_area: np.ndarray, dz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

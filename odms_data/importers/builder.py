@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import os
 import sys
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterator
 from concurrent.futures import Future, wait
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -23,26 +23,12 @@ import numpy as np
 from ..errors import InputError
 from ..parallel import spawn_pool
 from ..store.digest import StoreDigest, example_digest, frame_digests
-from ..store.format import StoreAttrs
+from ..store.format import Z_ODDITY, StoreAttrs
 from ..store.masks import FrameStats, pack, packed_width
-from ..store.validate import Z_ODDITY
 from ..store.writer import Layout, StoreWriter, write_shard_masks
 from .mask_files import DEFAULT_THRESHOLD, image_size, read_mask
 
 TINY_Z_STEP = 1e-4  # m; steps below this (but above 0) are recorded as an oddity
-
-
-def protocol_windows(n_frames: int, lengths: Iterable[int], n_obs: int) -> list[tuple[int, int, np.ndarray]]:
-    """(length, start, frame offsets) of every window of the robot protocol over n_frames frames.
-
-    Each window of `length` consecutive frames contributes n_obs frames evenly spaced over it,
-    `numpy.linspace(first, last, n_obs)` truncated to integers.
-    """
-    out = []
-    for w in lengths:
-        for s in range(n_frames - w + 1):
-            out.append((w, s, np.linspace(s, s + w - 1, n_obs).astype(np.int64)))
-    return out
 
 
 class BadFiles(InputError):

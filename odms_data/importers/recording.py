@@ -17,10 +17,11 @@ from pathlib import Path
 
 import numpy as np
 
+from ..benchmark import protocol_windows
 from ..errors import InputError
 from ..store.format import StoreAttrs
 from ..store.manifests import split_names
-from .builder import BadFiles, Plan, Workers, build_store, protocol_windows
+from .builder import BadFiles, Plan, Workers, build_store
 from .mask_files import DEFAULT_THRESHOLD, is_mask_file
 
 COLUMNS = ("frame", "z", "depth")

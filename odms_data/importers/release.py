@@ -22,16 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
+from ..benchmark import OFFICIAL_SPLITS, ROBOT_FRAMES, ROBOT_N_OBS, ROBOT_WINDOWS, protocol_windows
 from ..errors import DigestMismatchError, InputError
 from ..store.format import StoreAttrs
 from ..store.manifests import check_against_manifest, load_manifest, split_names
-from .builder import BadFiles, Plan, Workers, build_store, protocol_windows
+from .builder import BadFiles, Plan, Workers, build_store
 
-DOMAINS = ("robot", "driving", "normal", "perturb")
-SPLITS = tuple(f"{d}-{f}" for f in ("val", "test") for d in DOMAINS)
-ROBOT_FRAMES = 30
-ROBOT_WINDOWS = (10, 15, 20, 25, 30)
-ROBOT_N_OBS = 10
 # (frames per mask chunk, frames per shard): robot one folder per chunk, normal/perturb one example.
 CHUNKING = {"robot": (30, 480), "driving": (32, 1024), "normal": (10, 2000), "perturb": (10, 2000)}
 RELEASE = "official ODMS release (Griffin & Corso, ECCV 2020; griffbr/ODMS data/)"
@@ -194,10 +190,10 @@ def import_release(
     data_dir, out_dir = Path(data_dir), Path(out_dir)
     if not data_dir.is_dir():
         raise InputError(f"{data_dir}: no such folder (give the release's data/ folder)")
-    names = list(splits or SPLITS)
-    unknown = [n for n in names if n not in SPLITS]
+    names = list(splits or OFFICIAL_SPLITS)
+    unknown = [n for n in names if n not in OFFICIAL_SPLITS]
     if unknown:
-        raise InputError(f"unknown official split '{unknown[0]}'; known: {', '.join(SPLITS)}")
+        raise InputError(f"unknown official split '{unknown[0]}'; known: {', '.join(OFFICIAL_SPLITS)}")
     if fmt not in ("zarr", "hdf5"):
         raise InputError(f"unknown store format '{fmt}'; use zarr or hdf5")
     scans = {name: scan_split(data_dir, name, skip_bad) for name in names}

@@ -23,6 +23,7 @@ from functools import cached_property
 import cv2
 import numpy as np
 
+from ..benchmark import evenly_spaced
 from ..errors import InputError
 from ..simulate.shrink import resize_masks
 
@@ -36,7 +37,7 @@ def observation_indices(n: int, n_obs: int) -> np.ndarray:
     """Indices of `n_obs` evenly spaced observations out of `n`, first and last included."""
     if not 2 <= n_obs <= n:
         raise InputError(f"need 2 <= n_obs <= n, got n_obs={n_obs} for an example of {n} frames")
-    return np.linspace(0, n - 1, n_obs).astype(np.int64)
+    return evenly_spaced(0, n - 1, n_obs)
 
 
 def distances(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

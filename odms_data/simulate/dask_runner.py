@@ -18,6 +18,7 @@ import os
 from collections.abc import Callable, Iterator
 from typing import Any
 
+from .._version import __version__
 from ..errors import InputError, StoreError
 from .generate_store import ShardResult, ShardTask, run_shard
 
@@ -31,11 +32,9 @@ def _environment() -> dict[str, Any]:
     import numpy
     import zarr
 
-    import odms_data
-
     return {
         "pid": os.getpid(),
-        "versions": {"odms-data": odms_data.__version__, "numpy": numpy.__version__,
+        "versions": {"odms-data": __version__, "numpy": numpy.__version__,
                      "zarr": zarr.__version__},
     }
 

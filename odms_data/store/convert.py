@@ -7,9 +7,9 @@ from collections.abc import Callable
 import numpy as np
 
 from ..errors import StoreError
+from .digest import BLOCK_FRAMES, recompute_digest
 from .masks import FrameStats
 from .reader import open_store
-from .validate import BLOCK_FRAMES, recompute_digest
 from .writer import Layout, StoreWriter
 
 

@@ -7,11 +7,16 @@ from __future__ import annotations
 
 import hashlib
 import struct
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 DIGEST_PREFIX = b"odms-store-content/1"
+BLOCK_FRAMES = 1024  # frames read at a time when streaming a store
+
+if TYPE_CHECKING:
+    from .reader import Store
 
 
 def _f64(values: np.ndarray) -> bytes:
@@ -54,3 +59,25 @@ class StoreDigest:
 
     def hexdigest(self) -> str:
         return "sha256:" + self._h.hexdigest()
+
+
+def recompute_digest(
+    store: Store, visit: Callable[[int, np.ndarray], None] | None = None
+) -> tuple[str, np.ndarray]:
+    """Stream all masks once; returns the content digest and the (F, 32) frame digests.
+
+    `visit(start, packed_block)` sees every block of packed masks as it is read.
+    """
+    fd = np.empty((store.n_frames, 32), np.uint8)
+    for start in range(0, store.n_frames, BLOCK_FRAMES):
+        block = store.read_packed(start, min(start + BLOCK_FRAMES, store.n_frames))
+        stop = start + len(block)
+        fd[start:stop] = frame_digests(block, store.z[start:stop], store.depth[start:stop])
+        if visit:
+            visit(start, block)
+    digest = StoreDigest(store.height, store.width, store.n_examples)
+    digest.update(
+        example_digest(store.example_ids[i], store.sources[i], store.d1[i], fd[store.frames_of(i)])
+        for i in range(store.n_examples)
+    )
+    return digest.hexdigest(), fd

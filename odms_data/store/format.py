@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import __version__
+from .._version import __version__
 from ..errors import StoreError
 from ..resources import resource_dir
 from .masks import packed_width
@@ -17,7 +17,7 @@ from .masks import packed_width
 FORMAT_VERSION = 1
 ATTRS_KEY = "odms"
 UNITS = {"z": "m", "depth": "m", "d1": "m", "area": "px", "bbox": "px"}
-DOMAINS = ("generated", "robot", "driving", "normal", "perturb", "recording")
+Z_ODDITY = "z-not-increasing"  # the oddity kind that excuses z not increasing (FORMAT.md)
 
 # name -> dtype; per-frame arrays have F rows, per-example arrays E rows.
 FRAME_ARRAYS = {

@@ -3,21 +3,17 @@
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..errors import InputError, OdmsError
 from .backends import open_backend
-from .digest import StoreDigest, example_digest, frame_digests
-from .format import EXAMPLE_ARRAYS, FRAME_ARRAYS, attribute_problems, layout_problems
+from .digest import recompute_digest
+from .format import EXAMPLE_ARRAYS, FRAME_ARRAYS, Z_ODDITY, attribute_problems, layout_problems
 from .manifests import load_manifest, split_names
 from .masks import mask_stats, packed_width, unpack
 from .reader import Store, open_store
-
-BLOCK_FRAMES = 1024
-Z_ODDITY = "z-not-increasing"
 
 
 @dataclass
@@ -32,28 +28,6 @@ class Report:
     @property
     def ok(self) -> bool:
         return not self.problems
-
-
-def recompute_digest(
-    store: Store, visit: Callable[[int, np.ndarray], None] | None = None
-) -> tuple[str, np.ndarray]:
-    """Stream all masks once; returns the content digest and the (F, 32) frame digests.
-
-    `visit(start, packed_block)` sees every block of packed masks as it is read.
-    """
-    fd = np.empty((store.n_frames, 32), np.uint8)
-    for start in range(0, store.n_frames, BLOCK_FRAMES):
-        block = store.read_packed(start, min(start + BLOCK_FRAMES, store.n_frames))
-        stop = start + len(block)
-        fd[start:stop] = frame_digests(block, store.z[start:stop], store.depth[start:stop])
-        if visit:
-            visit(start, block)
-    digest = StoreDigest(store.height, store.width, store.n_examples)
-    digest.update(
-        example_digest(store.example_ids[i], store.sources[i], store.d1[i], fd[store.frames_of(i)])
-        for i in range(store.n_examples)
-    )
-    return digest.hexdigest(), fd
 
 
 def validate(path: str) -> Report:
