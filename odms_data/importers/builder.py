@@ -1,34 +1,26 @@
-"""Writing an imported store: mask files decoded on worker processes, one shard per task.
+"""Writing an imported store, the one builder every importer uses.
 
-An importer describes the store as a `Plan` (mask file, z and depth of every frame; frame rows,
-label, id and source of every example). `build_store` hands shard-aligned frame ranges to the
-workers, which decode, check and pack the masks, compute their statistics and frame digests, and
-write them into their shard (Zarr) or return deflated chunks (HDF5); the parent writes the small
-arrays and streams the content digest. Oddities that the data shows (z not increasing, tiny z
-steps, missing depths, empty masks) are recorded per example.
+An importer describes the store as a `Plan` (plan.py: mask file, z and depth of every frame;
+frame rows, label, id and source of every example). `build_store` hands shard-aligned frame
+ranges to the decoding workers (decoding.py), which write the masks; the parent writes the small
+arrays, streams the content digest and records the oddities the data shows (oddities.py).
 """
 
 from __future__ import annotations
 
-import os
-import sys
-from collections.abc import Callable, Iterator
-from concurrent.futures import Future, wait
-from contextlib import contextmanager
-from dataclasses import dataclass, field
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError
-from ..parallel import spawn_pool
-from ..store.digest import StoreDigest, example_digest, frame_digests
-from ..store.format import Z_ODDITY, StoreAttrs
-from ..store.masks import FrameStats, pack, packed_width
-from ..store.writer import Layout, StoreWriter, write_shard_masks
-from .mask_files import DEFAULT_THRESHOLD, image_size, read_mask
-
-TINY_Z_STEP = 1e-4  # m; steps below this (but above 0) are recorded as an oddity
+from ..store.digest import StoreDigest, example_digest
+from ..store.format import StoreAttrs
+from ..store.writer import Layout, StoreWriter
+from .decoding import FrameTask, Workers
+from .mask_files import image_size
+from .oddities import example_oddities
+from .plan import Plan
 
 
 class BadFiles(InputError):
@@ -41,184 +33,8 @@ class BadFiles(InputError):
         super().__init__(failures[0][1] + more)
 
 
-@dataclass
-class Plan:
-    """Everything an importer decided about a store, before any mask is decoded."""
-
-    split: str
-    domain: str
-    source: str
-    files: list[Path]  # (F,) mask file of each frame row
-    z: np.ndarray  # (F,) m
-    depth: np.ndarray  # (F,) m, NaN where unknown
-    frame_index: np.ndarray  # (E, N) frame rows, padded with -1
-    d1: np.ndarray  # (E,) m, NaN when unlabelled
-    ids: list[str]
-    sources: list[str]
-    frames_per_chunk: int
-    frames_per_shard: int
-    oddities: list[dict[str, str]] = field(default_factory=list)
-    threshold: int = DEFAULT_THRESHOLD
-
-
-@dataclass
-class FrameTask:
-    """Frame rows [start, start + len(files)) of the store being written at `path`."""
-
-    path: str
-    fmt: str
-    start: int
-    files: list[str]
-    z: np.ndarray
-    depth: np.ndarray
-    size: tuple[int, int]
-    reference: str  # the file whose size all masks must have
-    threshold: int
-    chunk: int  # frames per mask chunk (HDF5 chunks are padded to it)
-    collect_all: bool
-
-
-@dataclass
-class FrameResult:
-    start: int
-    stats: FrameStats | None = None
-    digests: np.ndarray | None = None
-    deflated_chunks: list[bytes] = field(default_factory=list)
-    failures: list[tuple[int, str]] = field(default_factory=list)
-
-
-def run_frames(task: FrameTask) -> FrameResult:
-    """Decode, check, pack and write one shard's masks; failures instead when a file is bad."""
-    H, W = task.size
-    k = len(task.files)
-    packed = np.zeros((k, H, packed_width(W)), np.uint8)
-    stats = FrameStats.empty(k)
-    result = FrameResult(task.start)
-    for i, f in enumerate(task.files):
-        try:
-            m = read_mask(Path(f), task.threshold)
-            if m.shape != (H, W):
-                raise InputError(
-                    f"{f}: image size {m.shape[0]}x{m.shape[1]} differs from the "
-                    f"{H}x{W} (height x width) of {task.reference}"
-                )
-        except InputError as e:
-            result.failures.append((task.start + i, str(e)))
-            if not task.collect_all:
-                break
-            continue
-        stats.set(i, m)
-        packed[i] = pack(m)
-    if result.failures:
-        return result
-    result.stats, result.digests = stats, frame_digests(packed, task.z, task.depth)
-    result.deflated_chunks = write_shard_masks(task.path, task.fmt, task.start, packed, task.chunk)
-    return result
-
-
-@contextmanager
-def _quiet_stderr() -> Iterator[None]:
-    """Silence file descriptor 2: libpng and libjpeg print their own complaints there."""
-    sys.stderr.flush()
-    saved = os.dup(2)
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    try:
-        os.dup2(devnull, 2)
-        yield
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
-        os.close(devnull)
-
-
-def _silence_worker() -> None:
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    os.dup2(devnull, 2)
-
-
-class Workers:
-    """A pool of decoding processes (or none, for workers <= 1) shared by several stores."""
-
-    def __init__(self, workers: int | None = None) -> None:
-        self.n = workers if workers is not None else (os.cpu_count() or 1)
-        self.pool = None
-
-    def __enter__(self) -> Workers:
-        if self.n > 1:
-            self.pool = spawn_pool(self.n, _silence_worker)
-        return self
-
-    def __exit__(self, *exc) -> None:
-        if self.pool is not None:
-            self.pool.shutdown(cancel_futures=True)
-
-    @contextmanager
-    def run(self, tasks: list[FrameTask]) -> Iterator[Iterator[FrameResult]]:
-        """Results in task order; on leaving, tasks not started are cancelled and running ones
-        awaited, so that no worker writes into a store being removed."""
-        if self.pool is None:
-            def serial() -> Iterator[FrameResult]:
-                for t in tasks:
-                    with _quiet_stderr():
-                        r = run_frames(t)
-                    yield r
-
-            yield serial()
-            return
-        pending: list[Future] = []
-        todo = iter(tasks)
-
-        def ordered() -> Iterator[FrameResult]:
-            for t in todo:
-                pending.append(self.pool.submit(run_frames, t))
-                if len(pending) >= 2 * self.n:
-                    break
-            while pending:
-                result = pending[0].result()
-                pending.pop(0)
-                nxt = next(todo, None)
-                if nxt is not None:
-                    pending.append(self.pool.submit(run_frames, nxt))
-                yield result
-
-        try:
-            yield ordered()
-        finally:
-            for f in pending:
-                f.cancel()
-            wait(pending)
-
-
 def _width(values: list[str]) -> int:
     return max([1, *(len(v.encode()) for v in values)])
-
-
-def example_oddities(plan: Plan, area: np.ndarray) -> list[dict[str, str]]:
-    """Per-example oddities the data shows, in example order."""
-    out = []
-    for e, row in enumerate(plan.frame_index):
-        frames = row[row >= 0]
-        names = [plan.files[f].name for f in frames]
-        steps = np.diff(plan.z[frames])
-        if np.any(steps <= 0):
-            j = int(np.argmax(steps <= 0))
-            out.append({"example": plan.ids[e], "kind": Z_ODDITY, "detail": (
-                f"z goes from {plan.z[frames[j]]!r} m ({names[j]}) to {plan.z[frames[j + 1]]!r} m "
-                f"({names[j + 1]}); kept as released")})
-        elif np.any(steps < TINY_Z_STEP):
-            j = int(np.argmax(steps < TINY_Z_STEP))
-            out.append({"example": plan.ids[e], "kind": "z-step-tiny", "detail": (
-                f"{names[j]} and {names[j + 1]} are {steps[j] * 1e6:.3g} micrometres apart")})
-        finite = np.isfinite(plan.depth[frames])
-        if finite.any() and not finite.all():
-            bad = [n for n, ok in zip(names, finite, strict=True) if not ok]
-            out.append({"example": plan.ids[e], "kind": "depth-not-finite",
-                        "detail": f"no finite depth at {', '.join(bad)}"})
-        empty = [n for n, f in zip(names, frames, strict=True) if area[f] == 0]
-        if empty:
-            out.append({"example": plan.ids[e], "kind": "empty-mask",
-                        "detail": f"empty mask at {', '.join(empty)}"})
-    return out
 
 
 def build_store(

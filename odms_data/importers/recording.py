@@ -21,8 +21,10 @@ from ..benchmark import protocol_windows
 from ..errors import InputError
 from ..store.format import StoreAttrs
 from ..store.manifests import split_names
-from .builder import BadFiles, Plan, Workers, build_store
+from .builder import BadFiles, build_store
+from .decoding import Workers
 from .mask_files import DEFAULT_THRESHOLD, is_mask_file
+from .plan import Plan
 
 COLUMNS = ("frame", "z", "depth")
 FRAMES_PER_CHUNK = 32

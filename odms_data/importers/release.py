@@ -26,7 +26,9 @@ from ..benchmark import OFFICIAL_SPLITS, ROBOT_FRAMES, ROBOT_N_OBS, ROBOT_WINDOW
 from ..errors import DigestMismatchError, InputError
 from ..store.format import StoreAttrs
 from ..store.manifests import check_against_manifest, load_manifest, split_names
-from .builder import BadFiles, Plan, Workers, build_store
+from .builder import BadFiles, build_store
+from .decoding import Workers
+from .plan import Plan
 
 # (frames per mask chunk, frames per shard): robot one folder per chunk, normal/perturb one example.
 CHUNKING = {"robot": (30, 480), "driving": (32, 1024), "normal": (10, 2000), "perturb": (10, 2000)}

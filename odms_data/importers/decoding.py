@@ -1,0 +1,154 @@
+"""Decoding mask files on worker processes: one shard-aligned range of frames per task.
+
+A task decodes, checks and packs its masks, computes their statistics and frame digests, and
+writes them into their shard (Zarr) or returns deflated chunks (HDF5); a bad file becomes a
+failure in the result instead. libpng and libjpeg print their own complaints on stderr, which is
+silenced while they decode.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Iterator
+from concurrent.futures import Future, wait
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from ..parallel import spawn_pool
+from ..store.digest import frame_digests
+from ..store.masks import FrameStats, pack, packed_width
+from ..store.writer import write_shard_masks
+from .mask_files import read_mask
+
+
+@dataclass
+class FrameTask:
+    """Frame rows [start, start + len(files)) of the store being written at `path`."""
+
+    path: str
+    fmt: str
+    start: int
+    files: list[str]
+    z: np.ndarray
+    depth: np.ndarray
+    size: tuple[int, int]
+    reference: str  # the file whose size all masks must have
+    threshold: int
+    chunk: int  # frames per mask chunk (HDF5 chunks are padded to it)
+    collect_all: bool
+
+
+@dataclass
+class FrameResult:
+    start: int
+    stats: FrameStats | None = None
+    digests: np.ndarray | None = None
+    deflated_chunks: list[bytes] = field(default_factory=list)
+    failures: list[tuple[int, str]] = field(default_factory=list)
+
+
+def run_frames(task: FrameTask) -> FrameResult:
+    """Decode, check, pack and write one shard's masks; failures instead when a file is bad."""
+    H, W = task.size
+    k = len(task.files)
+    packed = np.zeros((k, H, packed_width(W)), np.uint8)
+    stats = FrameStats.empty(k)
+    result = FrameResult(task.start)
+    for i, f in enumerate(task.files):
+        try:
+            m = read_mask(Path(f), task.threshold)
+            if m.shape != (H, W):
+                raise InputError(
+                    f"{f}: image size {m.shape[0]}x{m.shape[1]} differs from the "
+                    f"{H}x{W} (height x width) of {task.reference}"
+                )
+        except InputError as e:
+            result.failures.append((task.start + i, str(e)))
+            if not task.collect_all:
+                break
+            continue
+        stats.set(i, m)
+        packed[i] = pack(m)
+    if result.failures:
+        return result
+    result.stats, result.digests = stats, frame_digests(packed, task.z, task.depth)
+    result.deflated_chunks = write_shard_masks(task.path, task.fmt, task.start, packed, task.chunk)
+    return result
+
+
+@contextmanager
+def _quiet_stderr() -> Iterator[None]:
+    """Silence file descriptor 2: libpng and libjpeg print their own complaints there."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        os.close(devnull)
+
+
+def _silence_worker() -> None:
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 2)
+
+
+class Workers:
+    """A pool of decoding processes (or none, for workers <= 1) shared by several stores."""
+
+    def __init__(self, workers: int | None = None) -> None:
+        self.n = workers if workers is not None else (os.cpu_count() or 1)
+        self.pool = None
+
+    def __enter__(self) -> Workers:
+        if self.n > 1:
+            self.pool = spawn_pool(self.n, _silence_worker)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.pool is not None:
+            self.pool.shutdown(cancel_futures=True)
+
+    @contextmanager
+    def run(self, tasks: list[FrameTask]) -> Iterator[Iterator[FrameResult]]:
+        """Results in task order; on leaving, tasks not started are cancelled and running ones
+        awaited, so that no worker writes into a store being removed."""
+        if self.pool is None:
+            def serial() -> Iterator[FrameResult]:
+                for t in tasks:
+                    with _quiet_stderr():
+                        r = run_frames(t)
+                    yield r
+
+            yield serial()
+            return
+        pending: list[Future] = []
+        todo = iter(tasks)
+
+        def ordered() -> Iterator[FrameResult]:
+            for t in todo:
+                pending.append(self.pool.submit(run_frames, t))
+                if len(pending) >= 2 * self.n:
+                    break
+            while pending:
+                result = pending[0].result()
+                pending.pop(0)
+                nxt = next(todo, None)
+                if nxt is not None:
+                    pending.append(self.pool.submit(run_frames, nxt))
+                yield result
+
+        try:
+            yield ordered()
+        finally:
+            for f in pending:
+                f.cancel()
+            wait(pending)
