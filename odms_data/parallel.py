@@ -1,4 +1,5 @@
-"""Pools of spawned worker processes that do not outlive the process that started them.
+"""Pools of spawned worker processes that do not outlive the process that started them, and the
+one ordered, bounded map that generation, import, the NumPy loader and the Dask runner share.
 
 A `ProcessPoolExecutor` worker waits on its task queue forever, so when the parent is killed
 (SIGKILL, the OOM killer) its idle workers, and with them the shared memory they hold, would
@@ -12,10 +13,16 @@ from __future__ import annotations
 import multiprocessing
 import os
 import threading
-from collections.abc import Callable
+from collections import deque
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor
-from typing import Any
+from typing import Any, TypeVar
 
+Item = TypeVar("Item")
+Handle = TypeVar("Handle")
+Result = TypeVar("Result")
+
+_END = object()
 uninterrupted = threading.Lock()  # held by a worker around work an exit must not cut in two
 
 
@@ -41,3 +48,43 @@ def _exit_with(parent: multiprocessing.process.BaseProcess) -> None:
     parent.join()  # returns when the parent's end of the sentinel pipe closes, i.e. it has exited
     uninterrupted.acquire()  # e.g. a shared memory block created but not yet registered for cleanup
     os._exit(1)
+
+
+def _cancel(handles: list[Any]) -> None:
+    for h in handles:
+        h.cancel()
+
+
+def ordered_map(
+    submit: Callable[[Item], Handle],
+    collect: Callable[[Handle], Result],
+    items: Iterable[Item],
+    ahead: int | Callable[[], int],
+    abandon: Callable[[list[Handle]], None] = _cancel,
+) -> Iterator[Result]:
+    """`collect(submit(item))` for every item, in item order, with at most `ahead` items submitted
+    but not yet collected; `ahead` may be a function, asked at every top-up (a cluster that grows).
+
+    `submit` starts the work of an item and returns a handle (a future, say); `collect` waits for
+    a handle's result. When iteration stops early or raises, `abandon` gets the handles still
+    pending, oldest first (by default each one's `cancel()` is called).
+    """
+    todo = iter(items)
+    pending: deque[Handle] = deque()
+
+    def top_up() -> None:
+        limit = ahead() if callable(ahead) else ahead
+        while len(pending) < limit and (item := next(todo, _END)) is not _END:
+            pending.append(submit(item))
+
+    try:
+        top_up()
+        while pending:
+            result = collect(pending[0])
+            pending.popleft()
+            top_up()
+            yield result
+            del result  # freed as soon as the caller drops it (a batch's lent block, say)
+    finally:
+        if pending:
+            abandon(list(pending))

@@ -76,3 +76,50 @@ def test_generate_workers_go_when_the_command_is_killed(tmp_path):
     assert len(workers) == 3
     kill_and_wait(parent, workers, set(os.listdir("/dev/shm")))
     assert not any(alive(p) for p in workers)
+
+
+# --- ordered_map: the one ordered, bounded fan-out --------------------------------------------
+
+def _slow_square(x: int) -> int:
+    time.sleep(0.02 * (5 - x % 5))  # later items finish first
+    return x * x
+
+
+def test_ordered_map_keeps_item_order_and_its_bound():
+    from concurrent.futures import Future, ThreadPoolExecutor
+
+    from odms_data.parallel import ordered_map
+
+    in_flight, most = 0, 0
+
+    with ThreadPoolExecutor(4) as pool:
+        def submit(x: int) -> Future:
+            nonlocal in_flight, most
+            in_flight += 1
+            most = max(most, in_flight)
+            return pool.submit(_slow_square, x)
+
+        def collect(f: Future) -> int:
+            nonlocal in_flight
+            in_flight -= 1
+            return f.result()
+
+        assert list(ordered_map(submit, collect, range(12), 3)) == [x * x for x in range(12)]
+    assert most == 3
+
+
+def test_ordered_map_asks_a_callable_bound_at_every_top_up_and_abandons_the_rest_when_stopped():
+    from odms_data.parallel import ordered_map
+
+    bounds = iter([1, 2, 4, 4, 4, 4])
+    submitted, abandoned = [], []
+
+    def submit(x: int) -> int:
+        submitted.append(x)
+        return x
+
+    results = ordered_map(submit, lambda h: h * 10, range(100), lambda: next(bounds), abandoned.extend)
+    assert [next(results) for _ in range(3)] == [0, 10, 20]
+    assert submitted == [0, 1, 2, 3, 4, 5, 6]  # at most 1, then 2, then 4 pending after each top-up
+    results.close()
+    assert abandoned == [3, 4, 5, 6]

@@ -14,12 +14,13 @@ from collections.abc import Iterator
 from concurrent.futures import Future, wait
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError
-from ..parallel import spawn_pool
+from ..parallel import ordered_map, spawn_pool
 from ..store.digest import frame_digests
 from ..store.masks import FrameStats, pack, packed_width
 from ..store.writer import write_shard_masks
@@ -130,25 +131,15 @@ class Workers:
 
             yield serial()
             return
-        pending: list[Future] = []
-        todo = iter(tasks)
-
-        def ordered() -> Iterator[FrameResult]:
-            for t in todo:
-                pending.append(self.pool.submit(run_frames, t))
-                if len(pending) >= 2 * self.n:
-                    break
-            while pending:
-                result = pending[0].result()
-                pending.pop(0)
-                nxt = next(todo, None)
-                if nxt is not None:
-                    pending.append(self.pool.submit(run_frames, nxt))
-                yield result
-
+        results = ordered_map(partial(self.pool.submit, run_frames), Future.result, tasks, 2 * self.n,
+                              _cancel_and_wait)
         try:
-            yield ordered()
+            yield results
         finally:
-            for f in pending:
-                f.cancel()
-            wait(pending)
+            results.close()
+
+
+def _cancel_and_wait(futures: list[Future]) -> None:
+    for f in futures:
+        f.cancel()
+    wait(futures)

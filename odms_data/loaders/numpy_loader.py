@@ -14,11 +14,12 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
 from concurrent.futures import Future
+from contextlib import closing
 
 import numpy as np
 
 from ..errors import InputError
-from ..parallel import spawn_pool
+from ..parallel import ordered_map, spawn_pool
 from ..simulate.object_model import GeneratorParams
 from .shared_batches import Arena, BlockPool
 from .sources import STANDARD, GeneratedExamples, StoreExamples, store_order, stream_indices
@@ -59,29 +60,28 @@ class Batches:
                 yield self.source.batch(indices)
             return
         blocks = BlockPool()
+
+        def submit(indices: Sequence[int]) -> tuple[Future, str | None]:
+            lent = blocks.lend()
+            return pool.submit(_make_batch, indices, lent), lent
+
+        def collect(handle: tuple[Future, str | None]) -> dict[str, np.ndarray]:
+            future, lent = handle
+            return blocks.take(*future.result(), lent)
+
+        def abandon(handles: list[tuple[Future, str | None]]) -> None:
+            """Stopped early: batches made but not taken go back to the pool."""
+            for future, lent in handles:
+                if not future.cancel() and future.exception() is None:
+                    blocks.give_back(future.result()[0], lent)
+
         with spawn_pool(self.workers, _set_source, (self.source,)) as pool:
-            todo = iter(self.plan)
-            pending: list[tuple[Future, str | None]] = []
-
-            def submit(indices: Sequence[int]) -> None:
-                lent = blocks.lend()
-                pending.append((pool.submit(_make_batch, indices, lent), lent))
-
-            for _, indices in zip(range(2 * self.workers), todo, strict=False):
-                submit(indices)
             try:
-                while pending:
-                    future, lent = pending.pop(0)
-                    batch = blocks.take(*future.result(), lent)
-                    nxt = next(todo, None)
-                    if nxt is not None:
-                        submit(nxt)
-                    yield batch
-                    del batch  # our reference: the block is reused once the caller drops it too
-            finally:  # stopped early: batches made but not taken go back to the pool
-                for future, lent in pending:
-                    if not future.cancel() and future.exception() is None:
-                        blocks.give_back(future.result()[0], lent)
+                with closing(ordered_map(submit, collect, self.plan, 2 * self.workers, abandon)) as batches:
+                    for batch in batches:
+                        yield batch
+                        del batch  # our reference: the block is reused once the caller drops it too
+            finally:
                 blocks.close()
 
 

@@ -3,11 +3,10 @@
 The tasks are the ShardTasks of a local run, executed by the same `run_shard`, so the store and
 its digest do not depend on the cluster. Each task writes its whole Zarr shard of `masks` in one
 store write; a task that raises is retried by Dask (`RETRIES`), one whose worker dies is rerun
-elsewhere (the scheduler's `allowed-failures`), and a rerun rewrites the whole shard. Results come
-back as tasks complete (that is what progress counts) and are handed to the parent in task order,
-with at most two tasks per worker thread (recounted as the cluster scales) ahead of the oldest
-unfinished one; the parent writes the small arrays, feeds the digest and marks the store complete
-after the last shard.
+elsewhere (the scheduler's `allowed-failures`), and a rerun rewrites the whole shard. Results are
+handed to the parent in task order (parallel.ordered_map), with at most two tasks per worker
+thread (recounted as the cluster scales) ahead of the oldest unfinished one; the parent writes the
+small arrays, feeds the digest and marks the store complete after the last shard.
 
 Only this module imports Dask, and only `generate` with a scheduler imports this module.
 """
@@ -20,6 +19,7 @@ from typing import Any
 
 from .._version import __version__
 from ..errors import InputError, StoreError
+from ..parallel import ordered_map
 from .generate_store import ShardResult, ShardTask, run_shard
 
 RETRIES = 3  # reruns of a task that raised
@@ -77,40 +77,30 @@ def run_tasks(
     tasks: list[ShardTask], address: str, progress: Callable[[int], None] | None = None
 ) -> Iterator[ShardResult]:
     """Results of `tasks` run on the cluster at `address`, in task order."""
-    from distributed import as_completed
-
     with connect(address) as client:
         check_workers(client, address, tasks[0].path)
-        pending = as_completed(loop=client.loop)
-        index: dict[str, int] = {}  # future key -> task index
-        finished: dict[int, ShardResult] = {}
-        submitted = head = 0
 
-        def top_up() -> None:
-            nonlocal submitted
-            ahead = max(4, 2 * sum(client.nthreads().values()))  # follows a cluster that scales
-            while submitted < len(tasks) and submitted - head < ahead:
-                future = client.submit(run_shard, tasks[submitted], retries=RETRIES, pure=False)
-                index[future.key] = submitted
-                pending.add(future)
-                submitted += 1
+        def ahead() -> int:  # two tasks per worker thread, recounted as the cluster scales
+            return max(4, 2 * sum(client.nthreads().values()))
 
-        top_up()
-        for future in pending:
-            i = index.pop(future.key)
+        def submit(task: ShardTask) -> tuple[ShardTask, Any]:
+            return task, client.submit(run_shard, task, retries=RETRIES, pure=False)
+
+        def collect(handle: tuple[ShardTask, Any]) -> ShardResult:
+            t, future = handle
             try:
-                result = future.result()
+                return future.result()
             except Exception as e:
-                t = tasks[i]
                 raise StoreError(
                     f"{t.path}: shard of examples {t.start}-{t.stop - 1} failed on {address} "
                     f"after retries ({type(e).__name__}: {e})"
                 ) from e
+
+        def abandon(handles: list[tuple[ShardTask, Any]]) -> None:
+            for _, future in handles:
+                future.cancel()
+
+        for result in ordered_map(submit, collect, tasks, ahead, abandon):
             if progress:
                 progress(result.stop - result.start)
-            finished[i] = result
-            if head in finished:
-                while head in finished:
-                    yield finished.pop(head)
-                    head += 1
-                top_up()
+            yield result

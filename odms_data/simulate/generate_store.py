@@ -13,11 +13,12 @@ import os
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 
 from ..errors import InputError
-from ..parallel import spawn_pool
+from ..parallel import ordered_map, spawn_pool
 from ..store.digest import StoreDigest, example_digest, frame_digests
 from ..store.format import StoreAttrs
 from ..store.masks import FrameStats, pack, packed_width
@@ -107,18 +108,7 @@ def _run_local(tasks: list[ShardTask], workers: int) -> Iterator[ShardResult]:
         yield from map(run_shard, tasks)
         return
     with spawn_pool(workers) as pool:
-        pending: list[Future] = []
-        todo = iter(tasks)
-        for t in todo:
-            pending.append(pool.submit(run_shard, t))
-            if len(pending) >= 2 * workers:
-                break
-        while pending:
-            result = pending.pop(0).result()
-            nxt = next(todo, None)
-            if nxt is not None:
-                pending.append(pool.submit(run_shard, nxt))
-            yield result
+        yield from ordered_map(partial(pool.submit, run_shard), Future.result, tasks, 2 * workers)
 
 
 def generate(
