@@ -14,8 +14,9 @@ from click.testing import CliRunner
 
 from odms_data.cli import main
 from odms_data.errors import InputError
-from odms_data.simulate.generate_store import ShardTask, generate, run_shard
+from odms_data.simulate.generate_store import generate
 from odms_data.simulate.object_model import preset
+from odms_data.simulate.shards import ShardTask, run_shard
 from odms_data.store.reader import open_store
 from odms_data.store.validate import validate
 

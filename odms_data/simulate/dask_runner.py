@@ -20,7 +20,7 @@ from typing import Any
 from .._version import __version__
 from ..errors import InputError, StoreError
 from ..parallel import ordered_map
-from .generate_store import ShardResult, ShardTask, run_shard
+from .shards import ShardResult, ShardTask, run_shard
 
 RETRIES = 3  # reruns of a task that raised
 CONNECT_TIMEOUT_S = 30
