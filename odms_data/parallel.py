@@ -14,15 +14,15 @@ import multiprocessing
 import os
 import threading
 from collections import deque
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Generator, Iterable
 from concurrent.futures import ProcessPoolExecutor
+from itertools import islice
 from typing import Any, TypeVar
 
 Item = TypeVar("Item")
 Handle = TypeVar("Handle")
 Result = TypeVar("Result")
 
-_END = object()
 uninterrupted = threading.Lock()  # held by a worker around work an exit must not cut in two
 
 
@@ -61,7 +61,7 @@ def ordered_map(
     items: Iterable[Item],
     ahead: int | Callable[[], int],
     abandon: Callable[[list[Handle]], None] = _cancel,
-) -> Iterator[Result]:
+) -> Generator[Result, None, None]:
     """`collect(submit(item))` for every item, in item order, with at most `ahead` items submitted
     but not yet collected; `ahead` may be a function, asked at every top-up (a cluster that grows).
 
@@ -74,8 +74,7 @@ def ordered_map(
 
     def top_up() -> None:
         limit = ahead() if callable(ahead) else ahead
-        while len(pending) < limit and (item := next(todo, _END)) is not _END:
-            pending.append(submit(item))
+        pending.extend(map(submit, islice(todo, max(0, limit - len(pending)))))
 
     try:
         top_up()

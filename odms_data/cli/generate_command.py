@@ -78,7 +78,7 @@ def generate(ctx, split_name, count, preset, seed, n_obs, params, store_split, o
                                 ("--n-obs", n_obs), ("--param", params), ("--name", store_split)) if v]
         if given:
             raise InputError(f"--split {split_name} fixes its parameters; drop {', '.join(given)}")
-        gen = manifest.generator
+        gen = manifest.generator or {}
         count, preset, seed = manifest.count, gen["preset"], gen["seed"]
         overrides, store_split = dict(gen.get("params", {})), split_name
     elif count is None:

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
+from contextlib import AbstractContextManager
 from pathlib import Path
 
 import click
@@ -19,13 +21,16 @@ class _Bars:
     """One progress bar per label, restarted when the count goes back (a re-run after skipping)."""
 
     def __init__(self) -> None:
-        self.cm, self.label, self.last = None, None, 0
+        self.cm: AbstractContextManager[Callable[[int], None]] | None = None
+        self.label: str | None = None
+        self.last = 0
 
     def __call__(self, label: str, done: int, total: int) -> None:
         if label != self.label or done < self.last:
             self.close()
-            self.cm, self.label, self.last = progress(total, f"importing {label}"), label, 0
-            self.update = self.cm.__enter__()
+            cm = progress(total, f"importing {label}")
+            self.update = cm.__enter__()
+            self.cm, self.label, self.last = cm, label, 0
         self.update(done - self.last)
         self.last = done
 

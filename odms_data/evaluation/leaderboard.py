@@ -45,7 +45,8 @@ def check_entry(entry: Any, where: str) -> dict:
 def load_entries(folder: Path | None = None) -> list[dict]:
     """Every entry of `folder` (default: the shipped leaderboard/), checked; names must be unique."""
     folder = Path(folder) if folder else resource_dir("leaderboard")
-    entries, seen = [], {}
+    entries: list[dict] = []
+    seen: dict[str, Path] = {}
     for path in sorted(folder.glob("*.json")):
         try:
             entry = json.loads(path.read_text(encoding="utf-8"))

@@ -63,7 +63,7 @@ def family_all(scores: list[SplitScore]) -> dict[str, float]:
     full = {official_name(s.split, s.domain): s for s in scores if not s.partial}
     out = {}
     for fam in FAMILIES:
-        parts = [full.get((d, fam)) for d in OFFICIAL_DOMAINS]
-        if all(parts):
+        parts = [full[(d, fam)] for d in OFFICIAL_DOMAINS if (d, fam) in full]
+        if len(parts) == len(OFFICIAL_DOMAINS):
             out[fam] = float(np.mean([p.mean_percent_error for p in parts]))
     return out

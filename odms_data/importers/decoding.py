@@ -11,10 +11,9 @@ from __future__ import annotations
 import os
 import sys
 from collections.abc import Iterator
-from concurrent.futures import Future, wait
+from concurrent.futures import Future, ProcessPoolExecutor, wait
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -47,8 +46,8 @@ class FrameTask:
 @dataclass
 class FrameResult:
     start: int
-    stats: FrameStats | None = None
-    digests: np.ndarray | None = None
+    stats: FrameStats = field(default_factory=lambda: FrameStats.empty(0))  # both set when no file failed
+    digests: np.ndarray = field(default_factory=lambda: np.empty((0, 32), np.uint8))
     deflated_chunks: list[bytes] = field(default_factory=list)
     failures: list[tuple[int, str]] = field(default_factory=list)
 
@@ -107,7 +106,7 @@ class Workers:
 
     def __init__(self, workers: int | None = None) -> None:
         self.n = workers if workers is not None else (os.cpu_count() or 1)
-        self.pool = None
+        self.pool: ProcessPoolExecutor | None = None
 
     def __enter__(self) -> Workers:
         if self.n > 1:
@@ -131,7 +130,8 @@ class Workers:
 
             yield serial()
             return
-        results = ordered_map(partial(self.pool.submit, run_frames), Future.result, tasks, 2 * self.n,
+        pool = self.pool
+        results = ordered_map(lambda t: pool.submit(run_frames, t), Future.result, tasks, 2 * self.n,
                               _cancel_and_wait)
         try:
             yield results

@@ -106,6 +106,7 @@ def binarize(img: np.ndarray, threshold: int = DEFAULT_THRESHOLD) -> np.ndarray:
     if mask.any():  # then max >= threshold, where both rules agree on {0, max} masks
         return mask
     lo, hi = cv2.minMaxLoc(img)[:2]
-    if lo == 0 and hi > 0 and cv2.countNonZero(img) == cv2.countNonZero(cv2.compare(img, hi, cv2.CMP_EQ)):
+    at_max = cv2.compare(img, hi, cv2.CMP_EQ)  # type: ignore[call-overload]  # the stubs omit scalars
+    if lo == 0 and hi > 0 and cv2.countNonZero(img) == cv2.countNonZero(at_max):
         return img != 0
     return mask

@@ -199,7 +199,8 @@ def import_recording(
             def step(k: int, total: int = len(plan.files)) -> None:
                 nonlocal done
                 done += k
-                progress(done, total)
+                if progress is not None:
+                    progress(done, total)
 
             try:
                 attrs = build_store(plan, out, fmt, pool, overwrite=overwrite, collect_all=skip_bad,

@@ -18,6 +18,7 @@ import math
 import re
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -138,7 +139,11 @@ def scan_split(
 
 def make_plan(split: str, folders: list[Folder], skipped: list[dict[str, str]]) -> Plan:
     domain = split.split("-")[0]
-    files, z, depth, rows, d1, ids, sources = [], [], [], [], [], [], []
+    files: list[Path] = []
+    z, depth, rows = [], [], []
+    d1: list[float] = []
+    ids: list[str] = []
+    sources: list[str] = []
     for f in folders:
         base = len(files)
         files += f.files
@@ -209,23 +214,23 @@ def import_release(
                 plan = make_plan(name, folders, skipped)
                 total, done = len(plan.files), 0
 
-                def step(k: int, name=name, total=total) -> None:
+                def step(k: int, name: str = name, total: int = total) -> None:
                     nonlocal done
                     done += k
-                    progress(name, done, total)
+                    if progress is not None:
+                        progress(name, done, total)
 
                 try:
                     out[name] = build_store(
                         plan, path, fmt, pool, overwrite=overwrite, collect_all=skip_bad,
                         progress=step if progress else None,
-                        check=lambda a, name=name, skipped=skipped, path=path:
-                            _verify(a, name, path, strict=verify and not skipped),
+                        check=partial(_verify, name=name, path=path, strict=verify and not skipped),
                     )
                     break
                 except BadFiles as e:
                     if not skip_bad:
                         raise
-                    bad = {}
+                    bad: dict[int, str] = {}
                     for row, message in e.failures:
                         bad.setdefault(_folder_of(folders, row), message)
                     skipped = skipped + [

@@ -22,10 +22,10 @@ from ..errors import InputError
 from ..parallel import ordered_map, spawn_pool
 from ..simulate.object_model import GeneratorParams
 from .shared_batches import Arena, BlockPool
-from .sources import STANDARD, GeneratedExamples, StoreExamples, store_order, stream_indices
+from .sources import STANDARD, GeneratedExamples, Indices, StoreExamples, store_order, stream_indices
 from .transforms import PAPER_TRANSFORM, Transform
 
-_source: StoreExamples | GeneratedExamples | None = None  # a worker's source, set once
+_source: StoreExamples | GeneratedExamples  # a worker's source, set once by _set_source
 
 
 def _set_source(source: StoreExamples | GeneratedExamples) -> None:
@@ -34,7 +34,7 @@ def _set_source(source: StoreExamples | GeneratedExamples) -> None:
     _source = source
 
 
-def _make_batch(indices: Sequence[int], lent: str | None):
+def _make_batch(indices: Indices, lent: str | None):
     """In a worker: make a batch in the lent shared memory block (or a new one)."""
     arena = Arena(lent)
     return arena.finish(_source.batch(indices, arena.empty))
@@ -45,7 +45,8 @@ class Batches:
     example indices are `plan`; iterate it again to get the same batches again."""
 
     def __init__(
-        self, source: StoreExamples | GeneratedExamples, plan: Sequence[Sequence[int]], workers: int = 0
+        self, source: StoreExamples | GeneratedExamples, plan: Sequence[Indices],
+        workers: int = 0,
     ) -> None:
         if workers < 0:
             raise InputError(f"workers must be >= 0, got {workers}")
@@ -61,13 +62,14 @@ class Batches:
             return
         blocks = BlockPool()
 
-        def submit(indices: Sequence[int]) -> tuple[Future, str | None]:
+        def submit(indices: Indices) -> tuple[Future, str | None]:
             lent = blocks.lend()
             return pool.submit(_make_batch, indices, lent), lent
 
         def collect(handle: tuple[Future, str | None]) -> dict[str, np.ndarray]:
             future, lent = handle
-            return blocks.take(*future.result(), lent)
+            name, layout = future.result()
+            return blocks.take(name, layout, lent)
 
         def abandon(handles: list[tuple[Future, str | None]]) -> None:
             """Stopped early: batches made but not taken go back to the pool."""

@@ -15,6 +15,7 @@ import ctypes
 import threading
 import weakref
 from multiprocessing.shared_memory import SharedMemory
+from typing import cast
 
 import numpy as np
 
@@ -39,6 +40,11 @@ def _attach(name: str) -> SharedMemory:
     return _ATTACHED[name]
 
 
+def _buffer(block: SharedMemory) -> memoryview:
+    """The block's mapping; the stubs allow None, which only a closed block has."""
+    return cast(memoryview, block.buf)
+
+
 def _aligned(n: int) -> int:
     return -(-n // _ALIGN) * _ALIGN
 
@@ -50,7 +56,7 @@ class Arena:
     def __init__(self, lent: str | None) -> None:
         self.block = _attach(lent) if lent else None
         self.used = 0
-        self.address = np.frombuffer(self.block.buf, np.uint8).ctypes.data if self.block else 0
+        self.address = np.frombuffer(_buffer(self.block), np.uint8).ctypes.data if self.block else 0
 
     def empty(self, shape: tuple[int, ...], dtype: np.dtype) -> np.ndarray:
         nbytes = int(np.prod(shape)) * np.dtype(dtype).itemsize
@@ -69,8 +75,8 @@ class Arena:
 
     def finish(self, batch: dict[str, np.ndarray]) -> tuple[str, Layout]:
         """The block holding `batch` and where each array lies in it."""
-        offsets = {key: self._offset(a) for key, a in batch.items()}
-        if self.block is not None and None not in offsets.values():
+        offsets = {key: o for key, a in batch.items() if (o := self._offset(a)) is not None}
+        if self.block is not None and len(offsets) == len(batch):
             return self.block.name, {k: (a.shape, a.dtype.str, offsets[k]) for k, a in batch.items()}
         with uninterrupted:  # created and registered with the resource tracker, or not at all
             block = _Block(create=True, size=max(1, sum(_aligned(a.nbytes) for a in batch.values())))
@@ -116,9 +122,9 @@ class BlockPool:
         block = self._mapped(name, lent)
         sizes = {k: int(np.prod(shape)) * np.dtype(dt).itemsize for k, (shape, dt, _) in layout.items()}
         end = max((off + sizes[k] for k, (_, _, off) in layout.items()), default=0)
-        owner = (ctypes.c_char * max(end, 1)).from_buffer(block.buf)  # views of it keep it alive
+        owner = (ctypes.c_char * max(end, 1)).from_buffer(_buffer(block))  # views of it keep it alive
         weakref.finalize(owner, self._release, name)
-        base = np.frombuffer(owner, np.uint8)
+        base = np.frombuffer(owner, np.uint8)  # type: ignore[call-overload]  # numpy's stubs omit ctypes arrays
         return {key: base[off : off + sizes[key]].view(dt).reshape(shape)
                 for key, (shape, dt, off) in layout.items()}
 

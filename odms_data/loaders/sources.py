@@ -25,6 +25,7 @@ STANDARD = PRESETS["standard"]
 RENDER_CHUNK = 32  # examples drawn together: bounds the scratch images to a few MB
 
 
+Indices = Sequence[int] | np.ndarray  # example rows or generator indices
 Empty = Callable[[tuple[int, ...], np.dtype], np.ndarray]  # allocates a batch's array
 
 
@@ -88,10 +89,10 @@ class StoreExamples:
         chosen = self._chosen(i)
         return self._inputs(i, chosen, self.store.read_masks(chosen))
 
-    def batch(self, indices: Sequence[int], empty: Empty = np.empty) -> dict[str, np.ndarray]:
+    def batch(self, indices: Indices, empty: Empty = np.empty) -> dict[str, np.ndarray]:
         return collate(self.examples(indices), empty)
 
-    def examples(self, indices: Sequence[int]) -> list[dict[str, np.ndarray]]:
+    def examples(self, indices: Indices) -> list[dict[str, np.ndarray]]:
         """Examples by row; the packed masks of nearby rows are read in one slice."""
         rows = [int(i) for i in indices]
         chosen = [self._chosen(i) for i in rows]
@@ -129,7 +130,7 @@ class GeneratedExamples:
     def example(self, index: int) -> dict[str, np.ndarray]:
         return {key: a[0] for key, a in self.batch([index]).items()}
 
-    def batch(self, indices: Sequence[int], empty: Empty = np.empty) -> dict[str, np.ndarray]:
+    def batch(self, indices: Indices, empty: Empty = np.empty) -> dict[str, np.ndarray]:
         """The examples at generator `indices`, drawn together (simulate.batch_render) into arrays made by
         `empty`, a few dozen examples at a time."""
         p, t, chosen = self.params, self.transform, self._chosen

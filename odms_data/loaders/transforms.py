@@ -18,7 +18,8 @@ One example becomes a dict of NumPy arrays:
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
+from functools import lru_cache
+from typing import Any
 
 import cv2
 import numpy as np
@@ -57,6 +58,7 @@ def labels(d1: float, z: np.ndarray) -> dict[str, np.float32]:
     }
 
 
+@lru_cache(maxsize=8)
 def radial_image(size: tuple[int, int]) -> np.ndarray:
     """(h, w) float32: 1 at the centre, falling linearly with the distance to 0 at the corners."""
     h, w = size
@@ -91,21 +93,17 @@ class Transform:
         """Which of an example's n frames to use."""
         return observation_indices(n, self.n_obs or n)
 
-    @cached_property
-    def _radial(self) -> np.ndarray:
-        return radial_image(self.size)[None]
-
-    def __call__(self, masks: np.ndarray, z: np.ndarray, d1: float) -> dict[str, np.ndarray]:
+    def __call__(self, masks: np.ndarray, z: np.ndarray, d1: float) -> dict[str, Any]:
         """Inputs from the already selected observations: masks (k, H, W), z (k,), label d1."""
         size = self.size or masks.shape[1:]
         return {"masks": resize_masks(masks, size, self.coverage), **self.vectors(z, d1, size)}
 
-    def vectors(self, z: np.ndarray, d1: float, size: tuple[int, int]) -> dict[str, np.ndarray]:
+    def vectors(self, z: np.ndarray, d1: float, size: tuple[int, int]) -> dict[str, Any]:
         """Every input but the masks (of shape `size`), from the selected z (k,) and label d1."""
         dz, zbar = distances(z)
         out = {"dz": dz, "zbar": zbar, **labels(d1, z)}
         if self.radial:
-            out["radial"] = self._radial if self.size else radial_image(size)[None]
+            out["radial"] = radial_image(size)[None]
         return out
 
 

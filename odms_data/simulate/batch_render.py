@@ -163,7 +163,7 @@ def render_shrunk(
     polygons = g.polygons(offsets)
     for a, b in zip(groups[:-1], groups[1:], strict=True):
         tiles, width = tiled[a:b], int(widths[a])
-        canvas = np.zeros((int(top[b - 1] + heights[b - 1]), width), np.uint8)
+        canvas: np.ndarray = np.zeros((int(top[b - 1] + heights[b - 1]), width), np.uint8)
         # render_frame's canvas lies inside the tile with an empty margin, so drawing and
         # perturbing on the tile gives the same pixels as on the canvas
         cv2.fillPoly(canvas, [polygons[f] for f in tiles], 1, cv2.LINE_8, SHIFT)

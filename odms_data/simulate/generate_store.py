@@ -11,7 +11,6 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future
-from functools import partial
 
 import numpy as np
 
@@ -42,7 +41,7 @@ def _run_local(tasks: list[ShardTask], workers: int) -> Iterator[ShardResult]:
         yield from map(run_shard, tasks)
         return
     with spawn_pool(workers) as pool:
-        yield from ordered_map(partial(pool.submit, run_shard), Future.result, tasks, 2 * workers)
+        yield from ordered_map(lambda t: pool.submit(run_shard, t), Future.result, tasks, 2 * workers)
 
 
 def generate(

@@ -67,8 +67,9 @@ class GeneratorParams:
         unknown = sorted(set(d) - known)
         if unknown:
             raise InputError(f"generator parameters: unknown name(s) {', '.join(unknown)}")
+        values: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in d.items()}
         try:
-            return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in d.items()})
+            return cls(**values)
         except TypeError as e:
             raise InputError(f"generator parameters: a value has the wrong type ({e})") from None
 

@@ -38,7 +38,7 @@ def render_frame(
     margin = k + 1
     x0, y0 = int(np.floor(poly[:, 0].min())) - margin, int(np.floor(poly[:, 1].min())) - margin
     x1, y1 = int(np.ceil(poly[:, 0].max())) + margin + 1, int(np.ceil(poly[:, 1].max())) + margin + 1
-    canvas = np.zeros((y1 - y0, x1 - x0), np.uint8)
+    canvas: np.ndarray = np.zeros((y1 - y0, x1 - x0), np.uint8)
     fixed = np.round((poly - [x0, y0]) * (1 << SHIFT)).astype(np.int32)
     cv2.fillPoly(canvas, [fixed], 1, cv2.LINE_8, SHIFT)
     if k:

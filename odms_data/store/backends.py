@@ -8,11 +8,12 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from ..errors import StoreError
 
 FORMATS = ("zarr", "hdf5")
+Mode = Literal["r", "r+", "w"]  # read, update, create
 HDF5_SUFFIXES = (".h5", ".hdf5", ".hdf")
 HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
 ZSTD_LEVEL = 3
@@ -70,7 +71,7 @@ class Backend:
 class ZarrBackend(Backend):
     kind = "zarr"
 
-    def __init__(self, path: str, mode: str) -> None:
+    def __init__(self, path: str, mode: Mode) -> None:
         import zarr
 
         self.path = path
@@ -115,7 +116,7 @@ class ZarrBackend(Backend):
 class Hdf5Backend(Backend):
     kind = "hdf5"
 
-    def __init__(self, path: str, mode: str) -> None:
+    def __init__(self, path: str, mode: Mode) -> None:
         import h5py
 
         self.path = path
@@ -170,7 +171,7 @@ class Hdf5Backend(Backend):
         self.file.close()
 
 
-def open_backend(path: str, mode: str = "r", fmt: str | None = None) -> Backend:
+def open_backend(path: str, mode: Mode = "r", fmt: str | None = None) -> Backend:
     """Open the store at `path`; `fmt` defaults to what `detect_format` finds."""
     fmt = fmt or detect_format(path)
     if mode == "r" and not is_url(path) and not Path(path).exists():

@@ -29,7 +29,8 @@ def contact_sheet(example: Example, columns: int = COLUMNS) -> Image.Image:
     for i in range(n):
         r, c = divmod(i, cols)
         x, y = 4 + c * (tw + 4), title + r * (th + CAPTION)
-        thumb = Image.fromarray(example.masks[i].astype(np.uint8) * 255).resize((tw, th), Image.BILINEAR)
+        mask = Image.fromarray(example.masks[i].astype(np.uint8) * 255)
+        thumb = mask.resize((tw, th), Image.Resampling.BILINEAR)
         sheet.paste(thumb, (x, y))
         depth = "depth ?" if math.isnan(example.depth[i]) else f"depth {example.depth[i]:.3f} m"
         draw.text((x + 2, y + th + 4), f"#{i + 1}  z {example.z[i]:.4f} m  {depth}", fill=255)

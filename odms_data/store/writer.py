@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError, StoreExistsError, StoreLockedError
+from ..errors import InputError, StoreError, StoreExistsError, StoreLockedError
 from .backends import GZIP_LEVEL, Backend, detect_format, is_url, open_backend, storage_options
 from .format import EXAMPLE_ARRAYS, FRAME_ARRAYS, StoreAttrs, encode_strings
 from .masks import FrameStats, packed_width
@@ -143,6 +143,11 @@ class StoreWriter:
             ),
         }
 
+    def _created(self) -> tuple[Backend, Layout]:
+        if self.backend is None or self.layout is None:
+            raise StoreError(f"{self.path}: the store's arrays are written before create() was called")
+        return self.backend, self.layout
+
     def write_masks(self, start: int, packed: np.ndarray) -> None:
         self.arrays["masks"][start : start + len(packed)] = packed
 
@@ -165,7 +170,7 @@ class StoreWriter:
         self, start: int, frame_index: np.ndarray, d1: np.ndarray, ids: list[str], sources: list[str]
     ) -> None:
         stop = start + len(d1)
-        L = self.layout
+        _, L = self._created()
         fi = np.full((len(d1), L.max_obs), -1, np.int64)
         fi[:, : frame_index.shape[1]] = frame_index
         a = self.arrays
@@ -177,8 +182,9 @@ class StoreWriter:
     def commit(self, attrs: StoreAttrs) -> str:
         """Mark the store complete and move it into place; returns its path."""
         attrs.complete = True
-        self.backend.write_attrs(attrs.to_json())
-        self.backend.close()
+        backend, _ = self._created()
+        backend.write_attrs(attrs.to_json())
+        backend.close()
         if self.local:
             target, partial = Path(self.path), Path(self.partial)
             if target.exists() or target.is_symlink():
@@ -214,7 +220,7 @@ def write_shard_masks(
         from zarr.core.sync import sync
 
         masks = zarr.open_array(store=path, path="masks", mode="r+", storage_options=storage_options(path))
-        key = masks.metadata.encode_chunk_key((start // masks.shards[0], 0, 0))
+        key = masks.metadata.encode_chunk_key((start // masks.shards[0], 0, 0))  # type: ignore[index]  # masks is sharded
         sync(masks.store.delete(f"{masks.path}/{key}"))
         masks.with_config({"write_empty_chunks": True})[start : start + len(packed)] = packed
         return []
