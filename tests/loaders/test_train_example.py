@@ -10,7 +10,7 @@ from pathlib import Path
 import torch  # noqa: F401  (the example needs it; pip install -e '.[dev]' brings it)
 from loader_stores import COUNT, make_store
 
-SCRIPT = Path(__file__).resolve().parents[1] / "examples" / "train_odn.py"
+SCRIPT = Path(__file__).resolve().parents[2] / "examples" / "train_odn.py"
 
 
 def test_train_odn_smoke(tmp_path):
