@@ -1,0 +1,18 @@
+"""The benchmark's facts agree with the shipped split manifests."""
+
+from odms_data.benchmark import OFFICIAL_COUNTS, OFFICIAL_SPLITS, evenly_spaced, protocol_windows
+from odms_data.store.manifests import load_manifest, split_names
+
+
+def test_official_splits_and_counts_are_the_imported_manifests():
+    imported = [s for s in split_names() if load_manifest(s).kind == "imported"]
+    assert sorted(imported) == sorted(OFFICIAL_SPLITS) == sorted(OFFICIAL_COUNTS)
+    assert {s: load_manifest(s).count for s in imported} == OFFICIAL_COUNTS
+    assert sum(OFFICIAL_COUNTS.values()) == 15_650
+
+
+def test_evenly_spaced_truncates_and_the_robot_protocol_has_55_windows():
+    assert evenly_spaced(0, 29, 10).tolist() == [0, 3, 6, 9, 12, 16, 19, 22, 25, 29]
+    windows = protocol_windows(30, (10, 15, 20, 25, 30), 10)
+    assert len(windows) == 55
+    assert windows[-1][0] == 30 and windows[-1][2].tolist() == evenly_spaced(0, 29, 10).tolist()

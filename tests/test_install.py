@@ -1,0 +1,52 @@
+"""A built wheel works wherever pip puts it: installed with --prefix and with --target into
+temporary folders, it finds its shipped schemas/ and splits/ (also from spawned workers) and
+generates a named split whose digest matches its manifest."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+NOT_SOURCE = shutil.ignore_patterns(".*", "build", "dist", "*.egg-info", "__pycache__", "tests", "benchmarks")
+
+
+@pytest.fixture(scope="module")
+def wheel(tmp_path_factory) -> Path:
+    src, dist = tmp_path_factory.mktemp("src"), tmp_path_factory.mktemp("dist")
+    shutil.copytree(REPO, src, ignore=NOT_SOURCE, dirs_exist_ok=True)
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
+                    "-w", str(dist), str(src)], check=True)
+    (found,) = dist.glob("odms_data-*.whl")
+    return found
+
+
+def _install(wheel: Path, option: str, where: Path) -> Path:
+    pip = [sys.executable, "-m", "pip", "install", "--no-deps", "--ignore-installed", "-q"]
+    subprocess.run([*pip, option, str(where), str(wheel)], check=True)
+    if option == "--target":
+        return where
+    (site,) = where.glob("lib/python*/site-packages")
+    return site
+
+
+@pytest.mark.parametrize("option, workers", [("--prefix", "2"), ("--target", "1")])
+def test_an_installed_wheel_generates_a_named_split(wheel, tmp_path, option, workers):
+    site = _install(wheel, option, tmp_path / "install")
+    env = {**os.environ, "PYTHONPATH": str(site)}
+    run = tmp_path / "run"
+    run.mkdir()
+    where = subprocess.run([sys.executable, "-c", "import odms_data; print(odms_data.__file__)"], cwd=run,
+                           env=env, capture_output=True, text=True, check=True).stdout
+    assert Path(where.strip()).is_relative_to(site)
+    assert not (site / "schemas").exists()  # shipped inside the package, not beside it
+    generate = ["generate", "--split", "sim-val", "-o", "v.zarr", "--workers", workers]
+    out = subprocess.run([sys.executable, "-m", "odms_data.cli", *generate], cwd=run, env=env,
+                         capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert "digest matches splits/sim-val.json" in out.stdout
