@@ -21,7 +21,8 @@ import cv2
 import numpy as np
 import psutil
 
-from odms_data.simulate.object_model import PRESETS, sample_example
+from odms_data.simulate.object_model import sample_example
+from odms_data.simulate.params import PRESETS
 
 
 def baseline_examples_per_second(count: int) -> float:

@@ -14,7 +14,8 @@ import argparse
 
 import numpy as np
 
-from odms_data.simulate.object_model import preset, sample_example
+from odms_data.simulate.object_model import sample_example
+from odms_data.simulate.params import preset
 from odms_data.simulate.render import render_masks
 from odms_data.simulate.shrink import resize_masks
 

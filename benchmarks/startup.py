@@ -3,7 +3,7 @@
 Run by hand: `python benchmarks/startup.py [--base REV] [--repeat 15]`. The earlier commit
 (default: the last one before the layered package) is checked out into a temporary git worktree,
 and both trees are timed in the same run, alternating, each as a fresh interpreter with the
-tree first on PYTHONPATH:
+tree first on PYTHONPATH (and the working directory outside both trees):
 
 - `odms-data --help` (`python -m odms_data.cli --help`);
 - `python -c "import odms_data"`;
@@ -31,14 +31,14 @@ BEFORE_LAYOUT = "8e76e8e"  # main before issue 11's layered package
 def wall(tree: Path, args: list[str]) -> float:
     env = {**os.environ, "PYTHONPATH": str(tree)}
     start = time.perf_counter()
-    subprocess.run([sys.executable, *args], env=env, check=True, stdout=subprocess.DEVNULL)
+    subprocess.run([sys.executable, *args], env=env, check=True, stdout=subprocess.DEVNULL, cwd=tree.parent)
     return time.perf_counter() - start
 
 
 def modules(tree: Path, module: str) -> int:
     code = f"import sys, {module}; print(sum(m.startswith('odms_data') for m in sys.modules))"
     out = subprocess.run([sys.executable, "-c", code], env={**os.environ, "PYTHONPATH": str(tree)},
-                         check=True, capture_output=True, text=True).stdout
+                         check=True, capture_output=True, text=True, cwd=tree.parent).stdout
     return int(out)
 
 

@@ -24,7 +24,8 @@ from pathlib import Path
 from odms_data.loaders import Transform, store_batches, stream_batches
 from odms_data.loaders.sources import collate
 from odms_data.simulate.generate_store import generate
-from odms_data.simulate.object_model import GeneratorParams, sample_example
+from odms_data.simulate.object_model import sample_example
+from odms_data.simulate.params import GeneratorParams
 from odms_data.simulate.render import render_masks
 
 PARAMS = GeneratorParams(n_obs=10)

@@ -21,7 +21,7 @@ from torch.utils.data import DataLoader
 
 from odms_data.loaders import Transform
 from odms_data.loaders.torch_loader import StoreDataset, StreamDataset
-from odms_data.simulate.object_model import GeneratorParams
+from odms_data.simulate.params import GeneratorParams
 from odms_data.store.reader import open_store
 
 

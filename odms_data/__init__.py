@@ -23,8 +23,8 @@ _EXPORTS = {
     "Example": "store.reader", "Store": "store.reader", "open_store": "store.reader",
     "convert": "store.convert", "validate": "store.validate",
     "InputError": "errors", "OdmsError": "errors", "StoreError": "errors",
-    "GeneratorParams": "simulate.object_model", "PRESETS": "simulate.object_model",
-    "preset": "simulate.object_model", "generate": "simulate.generate_store",
+    "GeneratorParams": "simulate.params", "PRESETS": "simulate.params",
+    "preset": "simulate.params", "generate": "simulate.generate_store",
     "import_release": "importers.release", "import_recording": "importers.recording",
 }
 __all__ = [
@@ -37,7 +37,7 @@ if TYPE_CHECKING:
     from .importers.recording import import_recording
     from .importers.release import import_release
     from .simulate.generate_store import generate
-    from .simulate.object_model import PRESETS, GeneratorParams, preset
+    from .simulate.params import PRESETS, GeneratorParams, preset
     from .store.convert import convert
     from .store.reader import Example, Store, open_store
     from .store.validate import validate

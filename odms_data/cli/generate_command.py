@@ -8,11 +8,8 @@ import os
 import click
 
 from ..errors import InputError
-from ..simulate.generate_store import DEFAULT_EXAMPLES_PER_SHARD
-from ..simulate.generate_store import generate as generate_store
-from ..simulate.object_model import PRESETS, GeneratorParams
-from ..simulate.object_model import preset as make_preset
-from ..store.manifests import check_against_manifest, load_manifest
+from ..simulate.params import DEFAULT_EXAMPLES_PER_SHARD, PRESETS, GeneratorParams
+from ..simulate.params import preset as make_preset
 from .progress import progress
 
 
@@ -66,6 +63,9 @@ def generate(ctx, split_name, count, preset, seed, n_obs, params, store_split, o
       odms-data generate -n 100000 --preset perturb --seed 7 -o train.zarr --workers 8
       odms-data generate -n 2560000 --scheduler tcp://head:8786 -o s3://lab/odms/train.zarr
     """
+    from ..simulate.generate_store import generate as generate_store
+    from ..store.manifests import check_against_manifest, load_manifest
+
     if scheduler and ctx.get_parameter_source("workers") != click.core.ParameterSource.DEFAULT:
         raise InputError("--workers and --scheduler exclude each other; the cluster has its own workers")
     overrides = _parse_param(params)

@@ -11,9 +11,7 @@ import click
 
 from ..benchmark import OFFICIAL_SPLITS
 from ..errors import InputError
-from ..importers.mask_files import DEFAULT_THRESHOLD
-from ..importers.recording import import_recording
-from ..importers.release import import_release
+from ..importers.plan import DEFAULT_THRESHOLD
 from .progress import progress
 
 
@@ -101,6 +99,8 @@ def odms(data_dir, out_dir, splits, fmt, overwrite, skip_bad, no_verify, workers
     Example:
       odms-data import odms ODMS/data -o stores/
     """
+    from ..importers.release import import_release
+
     with _Bars() as bars:
         result = import_release(
             data_dir, out_dir, splits=list(splits) or None, fmt=fmt, overwrite=overwrite,
@@ -151,6 +151,8 @@ def recording(mask_dir, positions, output, windows, n_obs, threshold, d1, name, 
       odms-data import recording masks/ --positions positions.csv -o cup.zarr
       odms-data import recording masks/ --positions positions.csv --windows 10,15,20,25,30 --n-obs 10
     """
+    from ..importers.recording import import_recording
+
     window_list = _windows(windows)
     if n_obs is not None and window_list is None:
         raise InputError("--n-obs applies to windowed examples; give --windows too")

@@ -7,9 +7,7 @@ import json
 import click
 import numpy as np
 
-from ..store.convert import convert as convert_store
 from ..store.reader import open_store
-from ..store.validate import validate as validate_store
 from .progress import progress
 
 
@@ -25,6 +23,8 @@ def validate(store, as_json):
     Example:
       odms-data validate sim-val.zarr
     """
+    from ..store.validate import validate as validate_store
+
     report = validate_store(store)
     if as_json:
         click.echo(json.dumps({"path": report.path, "ok": report.ok, "problems": report.problems,
@@ -96,6 +96,8 @@ def convert(src, dst, fmt, overwrite):
     Example:
       odms-data convert sim-val.zarr sim-val.h5
     """
+    from ..store.convert import convert as convert_store
+
     with open_store(src) as s:
         total = s.n_frames
     with progress(total, f"converting to {dst}") as update:

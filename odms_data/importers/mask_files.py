@@ -17,11 +17,11 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
+from .plan import DEFAULT_THRESHOLD
 
 cv2.setNumThreads(1)
 
 MASK_SUFFIXES = (".png", ".jpg", ".jpeg")
-DEFAULT_THRESHOLD = 128
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 

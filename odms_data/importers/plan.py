@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .mask_files import DEFAULT_THRESHOLD
+DEFAULT_THRESHOLD = 128  # grey masks (JPEG, anti-aliased): pixels >= this are object, on the 8-bit scale
 
 
 @dataclass

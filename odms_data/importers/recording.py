@@ -23,8 +23,8 @@ from ..store.format import StoreAttrs
 from ..store.manifests import split_names
 from .builder import BadFiles, build_store
 from .decoding import Workers
-from .mask_files import DEFAULT_THRESHOLD, is_mask_file
-from .plan import Plan
+from .mask_files import is_mask_file
+from .plan import DEFAULT_THRESHOLD, Plan
 
 COLUMNS = ("frame", "z", "depth")
 FRAMES_PER_CHUNK = 32

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..parallel import ordered_map, spawn_pool
-from ..simulate.object_model import GeneratorParams
+from ..simulate.params import GeneratorParams
 from .shared_batches import Arena, BlockPool
 from .sources import STANDARD, GeneratedExamples, Indices, StoreExamples, store_order, stream_indices
 from .transforms import PAPER_TRANSFORM, Transform

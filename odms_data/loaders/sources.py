@@ -15,7 +15,8 @@ import numpy as np
 
 from ..errors import InputError
 from ..simulate.batch_render import render_masks, render_shrunk
-from ..simulate.object_model import PRESETS, GeneratorParams, sample_example
+from ..simulate.object_model import sample_example
+from ..simulate.params import PRESETS, GeneratorParams
 from ..simulate.shrink import shrink_boxes
 from ..store.masks import unpack
 from ..store.reader import Store, open_store

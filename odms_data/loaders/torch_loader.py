@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from ..simulate.object_model import GeneratorParams
+from ..simulate.params import GeneratorParams
 from .sources import STANDARD, GeneratedExamples, StoreExamples, stream_indices
 from .transforms import PAPER_TRANSFORM, Transform
 

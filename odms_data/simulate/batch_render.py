@@ -23,7 +23,8 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
-from .object_model import ExampleSpec, GeneratorParams
+from .object_model import ExampleSpec
+from .params import GeneratorParams
 from .render import CROSS, SHIFT, render_frame
 from .shrink import periods_of, resize_masks, shrink_into
 

@@ -19,10 +19,8 @@ from ..parallel import ordered_map, spawn_pool
 from ..store.digest import StoreDigest
 from ..store.format import StoreAttrs
 from ..store.writer import Layout, StoreWriter
-from .object_model import GeneratorParams
+from .params import DEFAULT_EXAMPLES_PER_SHARD, GeneratorParams
 from .shards import SOURCE, ShardResult, ShardTask, example_ids, run_shard
-
-DEFAULT_EXAMPLES_PER_SHARD = 128
 
 Progress = Callable[[int], None]
 

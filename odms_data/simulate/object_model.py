@@ -8,83 +8,12 @@ shape choices, contour points with their spacing redraws, then one perturbation 
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, fields, replace
+from dataclasses import dataclass
 from functools import lru_cache
-from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
-
-
-@dataclass(frozen=True)
-class GeneratorParams:
-    """Every knob of the generator; the defaults are the paper's `standard` preset."""
-
-    n_obs: int = 10
-    d_min: float = 0.1  # m, closest camera position; the contour is drawn at scale 1 here
-    d_max: float = 0.7  # m, farthest camera position
-    dz_min: float = 0.1  # m, least camera movement z_n - z_1
-    image_size: tuple[int, int] = (480, 640)  # height, width
-    sizes: tuple[int, ...] = (100, 200, 300, 400)  # s_p, px
-    n_points: tuple[int, ...] = (3, 4, 5, 6, 7, 8, 9, 10)  # n_p
-    bezier_radius: tuple[float, ...] = (0.01, 0.05, 0.2, 0.5)  # r_B
-    bezier_rotation: tuple[float, ...] = (0.01, 0.05, 0.2)  # rho_B
-    perturb_std: float = 0.0  # sigma of eq. 20; 0 disables perturbation
-    min_spacing: float = 0.7  # neighbouring contour points >= min_spacing / n_p * s_p apart ...
-    spacing_tries: int = 200  # ... redrawn up to this many times (the authors' released generator)
-    curve_samples: int = 32  # points per Bezier segment
-
-    def __post_init__(self) -> None:
-        problems = []
-        if self.n_obs < 2:
-            problems.append(f"n_obs must be at least 2, got {self.n_obs}")
-        if not 0 < self.d_min < self.d_max:
-            problems.append(f"need 0 < d_min < d_max, got d_min={self.d_min}, d_max={self.d_max}")
-        elif not 0 < self.dz_min <= self.d_max - self.d_min:
-            problems.append(f"need 0 < dz_min <= d_max - d_min, got dz_min={self.dz_min}")
-        if len(self.image_size) != 2 or min(self.image_size) < 1:
-            problems.append(f"image_size must be (height, width) >= 1, got {self.image_size}")
-        for name in ("sizes", "n_points", "bezier_radius", "bezier_rotation"):
-            if not getattr(self, name):
-                problems.append(f"{name} must not be empty")
-        if any(s <= 0 for s in self.sizes) or any(p < 3 for p in self.n_points):
-            problems.append("sizes must be positive and n_points at least 3")
-        if self.perturb_std < 0 or self.curve_samples < 2:
-            problems.append("perturb_std must be >= 0 and curve_samples >= 2")
-        if self.min_spacing < 0 or self.spacing_tries < 1:
-            problems.append("min_spacing must be >= 0 and spacing_tries >= 1")
-        if problems:
-            raise InputError("generator parameters: " + "; ".join(problems))
-
-    def to_json(self) -> dict[str, Any]:
-        d = asdict(self)
-        return {k: list(v) if isinstance(v, tuple) else v for k, v in d.items()}
-
-    @classmethod
-    def from_json(cls, d: dict[str, Any]) -> GeneratorParams:
-        known = {f.name for f in fields(cls)}
-        unknown = sorted(set(d) - known)
-        if unknown:
-            raise InputError(f"generator parameters: unknown name(s) {', '.join(unknown)}")
-        values: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in d.items()}
-        try:
-            return cls(**values)
-        except TypeError as e:
-            raise InputError(f"generator parameters: a value has the wrong type ({e})") from None
-
-
-PRESETS: dict[str, GeneratorParams] = {
-    "standard": GeneratorParams(),
-    "perturb": GeneratorParams(perturb_std=1.0),
-}
-
-
-def preset(name: str, **overrides: Any) -> GeneratorParams:
-    """A named preset with some parameters replaced."""
-    if name not in PRESETS:
-        raise InputError(f"unknown preset '{name}'; choose from {', '.join(PRESETS)}")
-    return replace(PRESETS[name], **overrides)
+from .params import GeneratorParams
 
 
 @dataclass

@@ -8,7 +8,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from .object_model import ExampleSpec, GeneratorParams
+from .object_model import ExampleSpec
+from .params import GeneratorParams
 
 cv2.setNumThreads(1)
 CROSS = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))  # the perturbation's structuring element

@@ -15,7 +15,8 @@ import numpy as np
 from ..store.digest import example_digest, frame_digests
 from ..store.masks import FrameStats, pack, packed_width
 from ..store.writer import write_shard_masks
-from .object_model import GeneratorParams, sample_example
+from .object_model import sample_example
+from .params import GeneratorParams
 from .render import render_frame
 
 SOURCE = "generated"

@@ -3,11 +3,19 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cache
+from types import ModuleType
 
-import cv2
 import numpy as np
 
-cv2.setNumThreads(1)
+
+@cache
+def _opencv() -> ModuleType:
+    """OpenCV, loaded when the first statistics are computed: reading a store never needs it."""
+    import cv2
+
+    cv2.setNumThreads(1)
+    return cv2
 
 
 def packed_width(width: int) -> int:
@@ -46,6 +54,7 @@ class FrameStats:
 
 def mask_stats(mask: np.ndarray, x_off: int = 0, y_off: int = 0) -> tuple[int, int, tuple]:
     """Area, area of the largest 8-connected region and bounding box of one binary mask."""
+    cv2 = _opencv()
     m = mask.view(np.uint8) if mask.dtype == bool else (mask != 0).view(np.uint8)
     area = cv2.countNonZero(m)
     if area == 0:

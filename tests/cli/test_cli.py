@@ -11,7 +11,7 @@ import pytest
 from PIL import Image
 
 from odms_data.simulate.generate_store import generate
-from odms_data.simulate.object_model import PRESETS
+from odms_data.simulate.params import PRESETS
 from odms_data.store.reader import open_store
 from odms_data.store.validate import validate
 

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from odms_data.simulate.generate_store import generate
-from odms_data.simulate.object_model import PRESETS
+from odms_data.simulate.params import PRESETS
 from odms_data.store.manifests import load_manifest
 from odms_data.store.reader import open_store
 from odms_data.store.validate import validate

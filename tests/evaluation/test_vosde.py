@@ -11,7 +11,7 @@ from odms_data.cli import main
 from odms_data.evaluation.predictions import read_predictions
 from odms_data.evaluation.vosde import observation_columns, solve, vosde
 from odms_data.simulate.generate_store import generate
-from odms_data.simulate.object_model import preset
+from odms_data.simulate.params import preset
 from odms_data.store.manifests import load_manifest
 from odms_data.store.masks import mask_stats
 from odms_data.store.reader import open_store

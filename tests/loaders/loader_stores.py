@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from odms_data.simulate.generate_store import generate
-from odms_data.simulate.object_model import GeneratorParams
+from odms_data.simulate.params import GeneratorParams
 
 PARAMS = GeneratorParams(image_size=(120, 160), sizes=(30, 60, 90), perturb_std=1.0)
 COUNT = 24

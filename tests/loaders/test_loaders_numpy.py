@@ -10,7 +10,8 @@ from loader_stores import COUNT, PARAMS, make_store
 
 from odms_data.errors import InputError
 from odms_data.loaders import GeneratedExamples, StoreExamples, Transform, store_batches, stream_batches
-from odms_data.simulate.object_model import GeneratorParams, sample_example
+from odms_data.simulate.object_model import sample_example
+from odms_data.simulate.params import GeneratorParams
 from odms_data.simulate.render import render_masks
 from odms_data.simulate.shrink import resize_masks
 from odms_data.store.reader import open_store

@@ -11,7 +11,7 @@ import numpy as np
 
 from odms_data.loaders import Transform, stream_batches
 from odms_data.loaders.shared_batches import Arena, BlockPool
-from odms_data.simulate.object_model import GeneratorParams
+from odms_data.simulate.params import GeneratorParams
 
 PARAMS = GeneratorParams(n_obs=6)
 SHM = Path("/dev/shm")

@@ -15,7 +15,7 @@ from click.testing import CliRunner
 from odms_data.cli import main
 from odms_data.errors import InputError
 from odms_data.simulate.generate_store import generate
-from odms_data.simulate.object_model import preset
+from odms_data.simulate.params import preset
 from odms_data.simulate.shards import ShardTask, run_shard
 from odms_data.store.reader import open_store
 from odms_data.store.validate import validate
@@ -144,7 +144,7 @@ def test_a_rerun_task_rewrites_a_half_written_shard(local_digest, tmp_path):
 def test_no_dask_without_a_scheduler(tmp_path):
     code = (
         "import sys; from odms_data.simulate.generate_store import generate; "
-        "from odms_data.simulate.object_model import preset; "
+        "from odms_data.simulate.params import preset; "
         "import odms_data.cli; "
         f"generate({str(tmp_path / 'x.zarr')!r}, 4, preset('standard', image_size=(60, 80), sizes=(20,)),"
         " 0); "

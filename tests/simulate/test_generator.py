@@ -6,13 +6,8 @@ import numpy as np
 import pytest
 
 from odms_data.errors import InputError
-from odms_data.simulate.object_model import (
-    PRESETS,
-    GeneratorParams,
-    preset,
-    sample_example,
-    spaced_points,
-)
+from odms_data.simulate.object_model import sample_example, spaced_points
+from odms_data.simulate.params import PRESETS, GeneratorParams, preset
 from odms_data.simulate.render import render_masks
 from odms_data.store.masks import stats_of
 

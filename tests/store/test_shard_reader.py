@@ -9,7 +9,7 @@ import pytest
 
 from odms_data.errors import StoreError
 from odms_data.simulate.generate_store import generate
-from odms_data.simulate.object_model import preset
+from odms_data.simulate.params import preset
 from odms_data.store.reader import open_store
 
 

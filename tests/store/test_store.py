@@ -10,7 +10,8 @@ import zarr
 
 from odms_data.errors import InputError, StoreError, StoreExistsError, StoreLockedError
 from odms_data.simulate.generate_store import generate
-from odms_data.simulate.object_model import PRESETS, sample_example
+from odms_data.simulate.object_model import sample_example
+from odms_data.simulate.params import PRESETS
 from odms_data.simulate.render import render_masks
 from odms_data.store.convert import convert
 from odms_data.store.masks import pack, stats_of, unpack

@@ -7,7 +7,7 @@ import pytest
 
 from odms_data.errors import StoreExistsError
 from odms_data.simulate.generate_store import generate
-from odms_data.simulate.object_model import preset
+from odms_data.simulate.params import preset
 from odms_data.store.reader import open_store
 
 PARAMS = preset("standard", image_size=(120, 160), sizes=(30, 60))
