@@ -1,6 +1,6 @@
-"""Decoding mask files on worker processes: one shard-aligned range of frames per task.
+"""Decoding masks on worker processes: one shard-aligned range of frames per task.
 
-A task decodes, checks and packs its masks, computes their statistics and frame digests, and
+A task reads (`MaskSource.read`), checks and packs its masks, computes their statistics and frame digests, and
 writes them into their shard (Zarr) or returns deflated chunks (HDF5); a bad file becomes a
 failure in the result instead. libpng and libjpeg print their own complaints on stderr, which is
 silenced while they decode.
@@ -10,11 +10,10 @@ from __future__ import annotations
 
 import os
 import sys
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, wait
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
@@ -23,21 +22,21 @@ from ..parallel import ordered_map, spawn_pool
 from ..store.digest import frame_digests
 from ..store.masks import FrameStats, pack, packed_width
 from ..store.writer import write_shard_masks
-from .mask_files import read_mask
+from .plan import MaskSource
 
 
 @dataclass
 class FrameTask:
-    """Frame rows [start, start + len(files)) of the store being written at `path`."""
+    """Frame rows [start, start + len(masks)) of the store being written at `path`."""
 
     path: str
     fmt: str
     start: int
-    files: list[str]
+    masks: Sequence[MaskSource]
     z: np.ndarray
     depth: np.ndarray
     size: tuple[int, int]
-    reference: str  # the file whose size all masks must have
+    reference: str  # the source whose size all masks must have
     threshold: int
     chunk: int  # frames per mask chunk (HDF5 chunks are padded to it)
     collect_all: bool
@@ -53,15 +52,15 @@ class FrameResult:
 
 
 def run_frames(task: FrameTask) -> FrameResult:
-    """Decode, check, pack and write one shard's masks; failures instead when a file is bad."""
+    """Read, check, pack and write one shard's masks; failures instead when a source is bad."""
     H, W = task.size
-    k = len(task.files)
+    k = len(task.masks)
     packed = np.zeros((k, H, packed_width(W)), np.uint8)
     stats = FrameStats.empty(k)
     result = FrameResult(task.start)
-    for i, f in enumerate(task.files):
+    for i, f in enumerate(task.masks):
         try:
-            m = read_mask(Path(f), task.threshold)
+            m = f.read(task.threshold)
             if m.shape != (H, W):
                 raise InputError(
                     f"{f}: image size {m.shape[0]}x{m.shape[1]} differs from the "

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import struct
 import zlib
+from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
@@ -94,6 +95,26 @@ def read_mask(path: Path, threshold: int = DEFAULT_THRESHOLD) -> np.ndarray:
     if img.ndim == 3:
         img = cv2.cvtColor(img, cv2.COLOR_BGRA2GRAY if img.shape[2] == 4 else cv2.COLOR_BGR2GRAY)
     return binarize(img, threshold)
+
+
+@dataclass(frozen=True)
+class MaskFile:
+    """A mask image file as a `MaskSource`."""
+
+    path: Path
+
+    @property
+    def name(self) -> str:
+        return self.path.name
+
+    def __str__(self) -> str:
+        return str(self.path)
+
+    def size(self) -> tuple[int, int]:
+        return image_size(self.path)
+
+    def read(self, threshold: int) -> np.ndarray:
+        return read_mask(self.path, threshold)
 
 
 def binarize(img: np.ndarray, threshold: int = DEFAULT_THRESHOLD) -> np.ndarray:

@@ -1,13 +1,33 @@
-"""What an importer decides about a store before any mask is decoded: the `Plan`."""
+"""What an importer decides about a store before any mask is decoded: the `Plan`, and where each
+frame's mask comes from (a `MaskSource`: a mask file, or one instance in a label image)."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 
 DEFAULT_THRESHOLD = 128  # grey masks (JPEG, anti-aliased): pixels >= this are object, on the 8-bit scale
+
+
+class MaskSource(Protocol):
+    """Where one frame's mask comes from; sent to the decoding workers, so it must pickle.
+    `str()` names it in error messages."""
+
+    @property
+    def name(self) -> str:
+        """Short name for oddity details (a file name)."""
+        ...
+
+    def size(self) -> tuple[int, int]:
+        """(height, width), without decoding where possible; InputError naming the source."""
+        ...
+
+    def read(self, threshold: int) -> np.ndarray:
+        """(H, W) bool mask, True = object; InputError naming the source."""
+        ...
 
 
 @dataclass
@@ -17,7 +37,7 @@ class Plan:
     split: str
     domain: str
     source: str
-    files: list[Path]  # (F,) mask file of each frame row
+    masks: Sequence[MaskSource]  # (F,) where each frame row's mask comes from
     z: np.ndarray  # (F,) m
     depth: np.ndarray  # (F,) m, NaN where unknown
     frame_index: np.ndarray  # (E, N) frame rows, padded with -1

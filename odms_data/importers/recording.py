@@ -23,7 +23,7 @@ from ..store.format import StoreAttrs
 from ..store.manifests import split_names
 from .builder import BadFiles, build_store
 from .decoding import Workers
-from .mask_files import is_mask_file
+from .mask_files import MaskFile, is_mask_file
 from .plan import DEFAULT_THRESHOLD, Plan
 
 COLUMNS = ("frame", "z", "depth")
@@ -145,7 +145,8 @@ def make_plan(
         ids, frame_index = [f"{name}/all"], np.arange(n)[None, :]
     d1 = depth[frame_index[:, 0]]
     return Plan(
-        split=name, domain="recording", source=f"recording {mask_dir.name}", files=files, z=z,
+        split=name, domain="recording", source=f"recording {mask_dir.name}",
+        masks=[MaskFile(f) for f in files], z=z,
         depth=depth, frame_index=frame_index, d1=d1, ids=ids, sources=[mask_dir.name] * len(ids),
         frames_per_chunk=FRAMES_PER_CHUNK, frames_per_shard=FRAMES_PER_SHARD,
         oddities=list(skipped), threshold=threshold,
@@ -196,7 +197,7 @@ def import_recording(
             plan = make_plan(name, mask_dir, files, z, depth, windows, n_obs, threshold, skipped)
             done = 0
 
-            def step(k: int, total: int = len(plan.files)) -> None:
+            def step(k: int, total: int = len(plan.masks)) -> None:
                 nonlocal done
                 done += k
                 if progress is not None:
@@ -209,8 +210,8 @@ def import_recording(
             except BadFiles as e:
                 if not skip_bad:
                     raise
-                bad = {str(plan.files[row]) for row, _ in e.failures}
-                skipped = skipped + [{"example": plan.files[row].name, "kind": "skipped", "detail": m}
+                bad = {str(plan.masks[row]) for row, _ in e.failures}
+                skipped = skipped + [{"example": plan.masks[row].name, "kind": "skipped", "detail": m}
                                      for row, m in e.failures]
                 keep = [i for i, f in enumerate(files) if str(f) not in bad]
                 files, z, depth = [files[i] for i in keep], z[keep], depth[keep]
