@@ -10,10 +10,11 @@ from __future__ import annotations
 
 import os
 import sys
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, wait
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, contextmanager
 from dataclasses import dataclass, field
+from typing import TypeVar
 
 import numpy as np
 
@@ -23,6 +24,9 @@ from ..store.digest import frame_digests
 from ..store.masks import FrameStats, pack, packed_width
 from ..store.writer import write_shard_masks
 from .plan import MaskSource
+
+Item = TypeVar("Item")
+Result = TypeVar("Result")
 
 
 @dataclass
@@ -117,25 +121,30 @@ class Workers:
             self.pool.shutdown(cancel_futures=True)
 
     @contextmanager
-    def run(self, tasks: list[FrameTask]) -> Iterator[Iterator[FrameResult]]:
-        """Results in task order; on leaving, tasks not started are cancelled and running ones
-        awaited, so that no worker writes into a store being removed."""
+    def map(self, fn: Callable[[Item], Result], items: Iterable[Item]) -> Iterator[Iterator[Result]]:
+        """`fn(item)` for every item (a picklable top-level function), results in item order; on
+        leaving, items not started are cancelled and running ones awaited, so that no worker
+        writes into a store being removed."""
         if self.pool is None:
-            def serial() -> Iterator[FrameResult]:
-                for t in tasks:
+            def serial() -> Iterator[Result]:
+                for t in items:
                     with _quiet_stderr():
-                        r = run_frames(t)
+                        r = fn(t)
                     yield r
 
             yield serial()
             return
         pool = self.pool
-        results = ordered_map(lambda t: pool.submit(run_frames, t), Future.result, tasks, 2 * self.n,
+        results = ordered_map(lambda t: pool.submit(fn, t), Future.result, items, 2 * self.n,
                               _cancel_and_wait)
         try:
             yield results
         finally:
             results.close()
+
+    def run(self, tasks: list[FrameTask]) -> AbstractContextManager[Iterator[FrameResult]]:
+        """`run_frames` of every task, in order (see `map`)."""
+        return self.map(run_frames, tasks)
 
 
 def _cancel_and_wait(futures: list[Future]) -> None:
