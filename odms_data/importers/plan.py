@@ -3,11 +3,16 @@ frame's mask comes from (a `MaskSource`: a mask file, or one instance in a label
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Protocol
 
 import numpy as np
+
+from ..errors import InputError
+from ..store.manifests import split_names
 
 DEFAULT_THRESHOLD = 128  # grey masks (JPEG, anti-aliased): pixels >= this are object, on the 8-bit scale
 
@@ -48,3 +53,18 @@ class Plan:
     frames_per_shard: int
     oddities: list[dict[str, str]] = field(default_factory=list)
     threshold: int = DEFAULT_THRESHOLD
+
+
+def store_name(name: str | None, out: Path, fallback: str, kind: str) -> str:
+    """The split name of an imported store: `name`, else the output's name up to its first dot
+    (else `fallback`, else `kind`, the kind of store) with other characters than letters, digits,
+    '.', '_' and '-' replaced; never an official split's name."""
+    if name is None:
+        name = re.sub(r"[^A-Za-z0-9._-]", "-", out.name.split(".")[0] or fallback).lstrip("._-")
+        name = name or kind
+    if not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9._-]*", name):
+        raise InputError(f"name '{name}': use letters, digits, '.', '_' and '-', starting with a letter "
+                         "or digit")
+    if name in split_names():
+        raise InputError(f"name '{name}' is an official split; choose another name for the {kind} store")
+    return name
