@@ -62,7 +62,12 @@ def run_frames(task: FrameTask) -> FrameResult:
     packed = np.zeros((k, H, packed_width(W)), np.uint8)
     stats = FrameStats.empty(k)
     result = FrameResult(task.start)
+    done: dict[int, int] = {}  # a source repeated within the task (the same object) is read once
     for i, f in enumerate(task.masks):
+        if id(f) in done:
+            packed[i] = packed[done[id(f)]]
+            stats.copy(done[id(f)], i)
+            continue
         try:
             m = f.read(task.threshold)
             if m.shape != (H, W):
@@ -77,6 +82,7 @@ def run_frames(task: FrameTask) -> FrameResult:
             continue
         stats.set(i, m)
         packed[i] = pack(m)
+        done[id(f)] = i
     if result.failures:
         return result
     result.stats, result.digests = stats, frame_digests(packed, task.z, task.depth)
