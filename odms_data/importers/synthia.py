@@ -200,12 +200,15 @@ def scan_frame(task: tuple[int, str, str, tuple[int, ...]]) -> FrameScan:
                              f"{Path(label_path).name} has {labels.shape[0]}x{labels.shape[1]}")
     except InputError as e:
         return FrameScan(frame, failure=str(e))
-    cls, inst = labels[..., 2], labels[..., 1]  # OpenCV decodes to BGR: R = class, G = instance
+    cls, inst = cv2.extractChannel(labels, 2), cv2.extractChannel(labels, 1)  # BGR: R = class, G = instance
     cm = depth[..., 2] if depth.ndim == 3 else depth
     H, W = cls.shape
     wanted = np.zeros(1 << 16, bool)
     wanted[list(classes)] = True
-    ys, xs = np.divmod(np.flatnonzero(wanted[cls] & (inst != 0)), W)  # pixels of selected instances
+    found = cv2.findNonZero((inst != 0).view(np.uint8))  # pixels with an instance id (dynamic objects)
+    xs, ys = np.reshape(found if found is not None else np.zeros((0, 2), np.int32), (-1, 2)).T
+    keep = wanted[cls[ys, xs]]
+    ys, xs = ys[keep], xs[keep]
     ids = inst[ys, xs]
     order = np.argsort(ids, kind="stable")
     ys, xs, ids = ys[order], xs[order], ids[order]
