@@ -1,4 +1,4 @@
-"""A built wheel works wherever pip puts it: installed with --prefix and with --target into
+"""A built wheel works wherever pip puts it: installed with --prefix, --target and --user into
 temporary folders, it finds its shipped schemas/ and splits/ (also from spawned workers) and
 generates a named split whose digest matches its manifest."""
 
@@ -8,6 +8,7 @@ import os
 import shutil
 import subprocess
 import sys
+import sysconfig
 from pathlib import Path
 
 import pytest
@@ -26,27 +27,32 @@ def wheel(tmp_path_factory) -> Path:
     return found
 
 
-def _install(wheel: Path, option: str, where: Path) -> Path:
+def _install(wheel: Path, option: str, where: Path) -> tuple[str, dict[str, str], Path]:
+    """Install the wheel with pip's `option`; (python, environment, folder holding the package)."""
+    if option == "--user":  # outside the virtual environment, which has no user site
+        python = getattr(sys, "_base_executable", sys.executable)
+        env = {**os.environ, "PYTHONUSERBASE": str(where), "PYTHONPATH": sysconfig.get_paths()["purelib"]}
+        subprocess.run([python, "-m", "pip", "install", "--no-deps", "--user", "-q", str(wheel)], env=env,
+                       check=True, stderr=subprocess.DEVNULL)  # pip warns about running as root
+        (site,) = where.glob("lib/python*/site-packages")
+        return python, env, site
     pip = [sys.executable, "-m", "pip", "install", "--no-deps", "--ignore-installed", "-q"]
     subprocess.run([*pip, option, str(where), str(wheel)], check=True)
-    if option == "--target":
-        return where
-    (site,) = where.glob("lib/python*/site-packages")
-    return site
+    site = where if option == "--target" else next(where.glob("lib/python*/site-packages"))
+    return sys.executable, {**os.environ, "PYTHONPATH": str(site)}, site
 
 
-@pytest.mark.parametrize("option, workers", [("--prefix", "2"), ("--target", "1")])
+@pytest.mark.parametrize("option, workers", [("--prefix", "2"), ("--target", "1"), ("--user", "2")])
 def test_an_installed_wheel_generates_a_named_split(wheel, tmp_path, option, workers):
-    site = _install(wheel, option, tmp_path / "install")
-    env = {**os.environ, "PYTHONPATH": str(site)}
+    python, env, site = _install(wheel, option, tmp_path / "install")
     run = tmp_path / "run"
     run.mkdir()
-    where = subprocess.run([sys.executable, "-c", "import odms_data; print(odms_data.__file__)"], cwd=run,
+    where = subprocess.run([python, "-c", "import odms_data; print(odms_data.__file__)"], cwd=run,
                            env=env, capture_output=True, text=True, check=True).stdout
     assert Path(where.strip()).is_relative_to(site)
     assert not (site / "schemas").exists()  # shipped inside the package, not beside it
     generate = ["generate", "--split", "sim-val", "-o", "v.zarr", "--workers", workers]
-    out = subprocess.run([sys.executable, "-m", "odms_data.cli", *generate], cwd=run, env=env,
+    out = subprocess.run([python, "-m", "odms_data.cli", *generate], cwd=run, env=env,
                          capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
     assert "digest matches splits/sim-val.json" in out.stdout
