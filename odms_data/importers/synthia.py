@@ -276,7 +276,7 @@ def scan_sequences(
     pool: Workers,
     *,
     camera: str = CAMERAS[0],
-    classes: tuple[int, ...] = Selection.classes,
+    classes: tuple[int, ...] = PAPER_SELECTION.classes,
     convention: PoseConvention = SYNTHIA_POSES,
     skip_bad: bool = False,
     progress: Callable[[str, int, int], None] | None = None,
