@@ -8,14 +8,15 @@ writer (tests/importers/synthia_scenes.py) into a temporary folder. Then, in the
 - Import: `odms-data import synthia` in a subprocess with 1 and with `--workers` workers: wall
   time, CPU time (user + sys of the whole process tree), frames per second, store rows/examples.
 
-Measured 2026-11-24 on the 2-core development machine under the CPU lock, but shared with other
-jobs (load average 4.0 to 4.5), 300 frames, the default protocol: decode baseline 53.6 frames/s
-(5.6 s wall, 5.0 CPU s); import 19.3 frames/s with 1 worker (15.6 s wall, 14.3 CPU s; 0.36 x the
-baseline), 21.1 frames/s with 2 (14.2 s wall; 0.39 x); 1,614 examples in 16,140 frame rows.
-About half the CPU time is the scan (the decoding itself plus 6 ms a frame to find the
-instances), half the writing: with the default 10-frame windows every sighting is stored in
-about 10 rows (one per closest frame, each with its own z), each row packed once per shard,
-hashed and compressed.
+Measured 2026-11-24 on the 2-core development machine under the CPU lock, 300 frames, the default
+protocol (1,614 examples in 16,140 frame rows). Quiet machine (load average 1.3 to 1.5): decode
+baseline 62.7 frames/s (4.8 s wall, 4.8 CPU s); import 21.0 frames/s with 1 worker (14.3 s wall
+and CPU; 0.33 x the baseline), 33.2 frames/s with 2 workers (9.0 s wall, 14.5 CPU s; 0.53 x).
+Busy machine (load average 4.0 to 4.5): baseline 53.6 frames/s, import 0.36 x (1 worker) and
+0.39 x (2). The import's CPU time is about 3 x the decoding's: in-process profiles give two
+thirds to the scan (the decoding itself, then finding and measuring the instances) and one third
+to the writing, where every sighting is stored in about 10 rows with the default 10-frame
+windows (one per closest frame, each with its own z), each row hashed and compressed.
 """
 
 from __future__ import annotations
