@@ -26,16 +26,19 @@ _EXPORTS = {
     "GeneratorParams": "simulate.params", "PRESETS": "simulate.params",
     "preset": "simulate.params", "generate": "simulate.generate_store",
     "import_release": "importers.release", "import_recording": "importers.recording",
+    "import_synthia": "importers.synthia",
 }
 __all__ = [
     "PRESETS", "Example", "GeneratorParams", "InputError", "OdmsError", "Store", "StoreError", "__version__",
-    "convert", "generate", "import_recording", "import_release", "open_store", "preset", "validate",
+    "convert", "generate", "import_recording", "import_release", "import_synthia", "open_store", "preset",
+    "validate",
 ]
 
 if TYPE_CHECKING:
     from .errors import InputError, OdmsError, StoreError
     from .importers.recording import import_recording
     from .importers.release import import_release
+    from .importers.synthia import import_synthia
     from .simulate.generate_store import generate
     from .simulate.params import PRESETS, GeneratorParams, preset
     from .store.convert import convert

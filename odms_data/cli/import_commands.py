@@ -1,7 +1,8 @@
-"""`odms-data import odms` and `odms-data import recording`."""
+"""`odms-data import odms`, `odms-data import recording` and `odms-data import synthia`."""
 
 from __future__ import annotations
 
+import json
 import os
 from collections.abc import Callable
 from contextlib import AbstractContextManager
@@ -12,6 +13,14 @@ import click
 from ..benchmark import OFFICIAL_SPLITS
 from ..errors import InputError
 from ..importers.plan import DEFAULT_THRESHOLD
+from ..importers.synthia_protocol import (
+    CAMERAS,
+    PAPER_SELECTION,
+    SYNTHIA_POSES,
+    PoseConvention,
+    Selection,
+    parse_classes,
+)
 from .progress import progress
 
 
@@ -52,25 +61,26 @@ def _report_skipped(oddities: list[dict[str, str]], what: str) -> None:
             click.echo(f"  {o['detail']}")
 
 
-def _windows(text: str | None) -> list[int] | None:
+def _counts(option: str, text: str | None) -> list[int] | None:
     if text is None:
         return None
     try:
         values = [int(t) for t in text.split(",")]
     except ValueError:
-        raise InputError(f"--windows '{text}': expected frame counts separated by commas, "
+        raise InputError(f"{option} '{text}': expected frame counts separated by commas, "
                          "e.g. 10,15,20,25,30") from None
     return values
 
 
 @click.group("import")
 def import_group() -> None:
-    """Import real segmentations: the official ODMS release or your own recording.
+    """Import real segmentations: the official ODMS release, your own recording, SYNTHIA.
 
     \b
     Examples:
       odms-data import odms ODMS/data -o stores/
       odms-data import recording masks/ --positions positions.csv -o cup.zarr
+      odms-data import synthia SYNTHIA-SEQS-01-DAWN SYNTHIA-SEQS-02-FOG -o driving.zarr
     """
 
 
@@ -153,7 +163,7 @@ def recording(mask_dir, positions, output, windows, n_obs, threshold, d1, name, 
     """
     from ..importers.recording import import_recording
 
-    window_list = _windows(windows)
+    window_list = _counts("--windows", windows)
     if n_obs is not None and window_list is None:
         raise InputError("--n-obs applies to windowed examples; give --windows too")
     with _Bars() as bars:
@@ -165,3 +175,84 @@ def recording(mask_dir, positions, output, windows, n_obs, threshold, d1, name, 
     click.echo(f"wrote {path}: {attrs.counts['examples']} example(s) ({attrs.counts['labelled']} labelled), "
                f"{attrs.counts['frames']} frames, digest {attrs.digest}")
     _report_skipped(attrs.oddities, "row(s) or file(s)")
+
+
+@import_group.command("synthia")
+@click.argument("seq_dirs", nargs=-1, required=True, type=click.Path())
+@click.option("-o", "--output", type=click.Path(), required=True, help="Output store (.zarr or .h5).")
+@click.option("--camera", type=click.Choice(CAMERAS), default=CAMERAS[0], show_default=True, metavar="CAMERA",
+              help="Whose frames to import: Stereo_Left or Stereo_Right / Omni_F, Omni_B, Omni_L or Omni_R.")
+@click.option("--classes", default=None, metavar="C,C,...",
+              help="Instance classes, by name (car, pedestrian, bicycle) or SYNTHIA class id "
+                   "[default: car,pedestrian,bicycle; a class given here must occur].")
+@click.option("--frames", default=",".join(map(str, PAPER_SELECTION.frames)), show_default=True,
+              metavar="N,N,...", help="Frames per example; several give several windows per closest frame.")
+@click.option("--stride", type=click.IntRange(min=1), default=PAPER_SELECTION.stride, show_default=True,
+              help="A window starts every STRIDE frames of a track.")
+@click.option("--min-area", type=click.IntRange(min=1), default=PAPER_SELECTION.min_area, show_default=True,
+              help="Pixels the mask needs at the closest frame.")
+@click.option("--no-border", is_flag=True,
+              help="Drop windows in which the instance touches the image border.")
+@click.option("--no-occluded", is_flag=True, help="Drop windows in which the instance is partly hidden.")
+@click.option("--move", nargs=2, type=float, default=PAPER_SELECTION.move, show_default=True,
+              metavar="MIN MAX", help="Camera movement z_n - z_1 of an example, m (the paper: 4.2 to 68).")
+@click.option("--d1-range", nargs=2, type=float, default=PAPER_SELECTION.d1, show_default=True,
+              metavar="MIN MAX", help="Depth at the closest frame, m (the paper: 1.5 to 62).")
+@click.option("--max-gap", type=click.IntRange(min=0), default=PAPER_SELECTION.max_gap, show_default=True,
+              help="Frames an instance may be absent inside its track (kept as empty masks).")
+@click.option("--matrix-order", type=click.Choice(["column-major", "row-major"]), default=SYNTHIA_POSES.order,
+              show_default=True, help="Order of the 16 numbers of a CameraParams file.")
+@click.option("--pose", type=click.Choice(["camera-to-world", "world-to-camera"]),
+              default=SYNTHIA_POSES.direction, show_default=True, help="What the CameraParams matrix maps.")
+@click.option("--forward", type=click.Choice(["-z", "+z"]), default=SYNTHIA_POSES.forward, show_default=True,
+              help="The optical axis among the camera's axes in that matrix.")
+@click.option("--name", default=None, help="Name used in the store and its example ids "
+              "(default: the output's name).")
+@click.option("--format", "fmt", type=click.Choice(["zarr", "hdf5"]), default=None,
+              help="Store backend (default: from the output suffix, else zarr).")
+@click.option("--overwrite", is_flag=True, help="Replace an existing store.")
+@click.option("--skip-bad", is_flag=True,
+              help="Leave out bad frames and sequences, import the rest and report what was skipped.")
+@click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+@click.option("--workers", type=click.IntRange(min=1), default=os.cpu_count() or 1,
+              show_default="all cores", help="Decoding processes.")
+def synthia(seq_dirs, output, camera, classes, frames, stride, min_area, no_border, no_occluded, move,
+            d1_range, max_gap, matrix_order, pose, forward, name, fmt, overwrite, skip_bad, as_json, workers):
+    """Make driving examples from SYNTHIA-SEQS video sequences, as the ODMS paper did.
+
+    SEQ_DIRS are SYNTHIA-SEQS-XX-SEASON folders (RGB/, Depth/, GT/LABELS/, CameraParams/).
+    Each example is one car, pedestrian or bicycle over consecutive frames, closest first, with
+    the camera's movement along the optical axis and the object's mean depth per frame; ids are
+    the release's folder names, <sequence>_<first frame>_<frames>_<instance>. The protocol, its
+    options and SYNTHIA's conventions (with sources): schemas/SYNTHIA.md.
+
+    \b
+    Examples:
+      odms-data import synthia SYNTHIA-SEQS-01-DAWN -o dawn.zarr
+      odms-data import synthia SYNTHIA-SEQS-0* -o driving.zarr --frames 10,15,20 --no-occluded
+    """
+    from ..importers.synthia import import_synthia
+
+    selection = Selection(
+        classes=parse_classes(classes) if classes is not None else PAPER_SELECTION.classes,
+        frames=tuple(_counts("--frames", frames) or ()), stride=stride, min_area=min_area,
+        border=not no_border, occluded=not no_occluded, move=move, d1=d1_range, max_gap=max_gap,
+    )
+    with _Bars() as bars:
+        path, attrs, summary = import_synthia(
+            seq_dirs, output, camera=camera, selection=selection, classes_given=classes is not None,
+            convention=PoseConvention(matrix_order, pose, forward), name=name, fmt=fmt, overwrite=overwrite,
+            skip_bad=skip_bad, workers=workers, progress=None if as_json else bars,
+        )
+    if as_json:
+        click.echo(json.dumps(summary, indent=2))
+        return
+    for seq in summary["sequences"]:
+        def tally(counts: dict[str, int]) -> str:
+            return ", ".join(f"{n} {c}" for c, n in counts.items()) or "none"
+
+        click.echo(f"{seq['name']}: {seq['frames']} frames; tracks: {tally(seq['tracks'])}; "
+                   f"examples: {tally(seq['examples'])}")
+    click.echo(f"wrote {path}: {attrs.counts['examples']} examples, {attrs.counts['frames']} frames, "
+               f"{len(attrs.oddities)} oddities recorded, digest {attrs.digest}")
+    _report_skipped(attrs.oddities, "frame(s) or sequence(s)")

@@ -1,6 +1,6 @@
 """Writing an imported store, the one builder every importer uses.
 
-An importer describes the store as a `Plan` (plan.py: mask file, z and depth of every frame;
+An importer describes the store as a `Plan` (plan.py: mask source, z and depth of every frame;
 frame rows, label, id and source of every example). `build_store` hands shard-aligned frame
 ranges to the decoding workers (decoding.py), which write the masks; the parent writes the small
 arrays, streams the content digest and records the oddities the data shows (oddities.py).
@@ -18,7 +18,6 @@ from ..store.digest import StoreDigest, example_digest
 from ..store.format import StoreAttrs
 from ..store.writer import Layout, StoreWriter
 from .decoding import FrameTask, Workers
-from .mask_files import image_size
 from .oddities import example_oddities
 from .plan import Plan
 
@@ -53,11 +52,11 @@ def build_store(
     `collect_all` decodes every file even after a bad one, so that BadFiles lists all of them.
     `check(attrs)` runs before the commit and may amend the attributes or raise to abort.
     """
-    F, E = len(plan.files), len(plan.d1)
+    F, E = len(plan.masks), len(plan.d1)
     if F == 0 or E == 0:
         raise InputError(f"{plan.split}: nothing to import (no frames or no examples left)")
     try:
-        H, W = image_size(plan.files[0])
+        H, W = plan.masks[0].size()
     except InputError as e:
         raise BadFiles([(0, str(e))]) from None
     fpc = min(plan.frames_per_chunk, F)
@@ -70,8 +69,8 @@ def build_store(
     with StoreWriter(str(out), fmt, overwrite=overwrite) as w:
         w.create(layout)
         tasks = [
-            FrameTask(w.partial, w.format, s, [str(f) for f in plan.files[s : s + fps]],
-                      plan.z[s : s + fps], plan.depth[s : s + fps], (H, W), str(plan.files[0]),
+            FrameTask(w.partial, w.format, s, plan.masks[s : s + fps],
+                      plan.z[s : s + fps], plan.depth[s : s + fps], (H, W), str(plan.masks[0]),
                       plan.threshold, fpc, collect_all)
             for s in range(0, F, fps)
         ]

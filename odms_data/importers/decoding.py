@@ -1,6 +1,6 @@
-"""Decoding mask files on worker processes: one shard-aligned range of frames per task.
+"""Decoding masks on worker processes: one shard-aligned range of frames per task.
 
-A task decodes, checks and packs its masks, computes their statistics and frame digests, and
+A task reads (`MaskSource.read`), checks and packs its masks, computes their statistics and frame digests, and
 writes them into their shard (Zarr) or returns deflated chunks (HDF5); a bad file becomes a
 failure in the result instead. libpng and libjpeg print their own complaints on stderr, which is
 silenced while they decode.
@@ -10,11 +10,11 @@ from __future__ import annotations
 
 import os
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, wait
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, contextmanager
 from dataclasses import dataclass, field
-from pathlib import Path
+from typing import TypeVar
 
 import numpy as np
 
@@ -23,21 +23,24 @@ from ..parallel import ordered_map, spawn_pool
 from ..store.digest import frame_digests
 from ..store.masks import FrameStats, pack, packed_width
 from ..store.writer import write_shard_masks
-from .mask_files import read_mask
+from .plan import MaskSource
+
+Item = TypeVar("Item")
+Result = TypeVar("Result")
 
 
 @dataclass
 class FrameTask:
-    """Frame rows [start, start + len(files)) of the store being written at `path`."""
+    """Frame rows [start, start + len(masks)) of the store being written at `path`."""
 
     path: str
     fmt: str
     start: int
-    files: list[str]
+    masks: Sequence[MaskSource]
     z: np.ndarray
     depth: np.ndarray
     size: tuple[int, int]
-    reference: str  # the file whose size all masks must have
+    reference: str  # the source whose size all masks must have
     threshold: int
     chunk: int  # frames per mask chunk (HDF5 chunks are padded to it)
     collect_all: bool
@@ -53,15 +56,20 @@ class FrameResult:
 
 
 def run_frames(task: FrameTask) -> FrameResult:
-    """Decode, check, pack and write one shard's masks; failures instead when a file is bad."""
+    """Read, check, pack and write one shard's masks; failures instead when a source is bad."""
     H, W = task.size
-    k = len(task.files)
+    k = len(task.masks)
     packed = np.zeros((k, H, packed_width(W)), np.uint8)
     stats = FrameStats.empty(k)
     result = FrameResult(task.start)
-    for i, f in enumerate(task.files):
+    done: dict[int, int] = {}  # a source repeated within the task (the same object) is read once
+    for i, f in enumerate(task.masks):
+        if id(f) in done:
+            packed[i] = packed[done[id(f)]]
+            stats.copy(done[id(f)], i)
+            continue
         try:
-            m = read_mask(Path(f), task.threshold)
+            m = f.read(task.threshold)
             if m.shape != (H, W):
                 raise InputError(
                     f"{f}: image size {m.shape[0]}x{m.shape[1]} differs from the "
@@ -74,6 +82,7 @@ def run_frames(task: FrameTask) -> FrameResult:
             continue
         stats.set(i, m)
         packed[i] = pack(m)
+        done[id(f)] = i
     if result.failures:
         return result
     result.stats, result.digests = stats, frame_digests(packed, task.z, task.depth)
@@ -118,25 +127,30 @@ class Workers:
             self.pool.shutdown(cancel_futures=True)
 
     @contextmanager
-    def run(self, tasks: list[FrameTask]) -> Iterator[Iterator[FrameResult]]:
-        """Results in task order; on leaving, tasks not started are cancelled and running ones
-        awaited, so that no worker writes into a store being removed."""
+    def map(self, fn: Callable[[Item], Result], items: Iterable[Item]) -> Iterator[Iterator[Result]]:
+        """`fn(item)` for every item (a picklable top-level function), results in item order; on
+        leaving, items not started are cancelled and running ones awaited, so that no worker
+        writes into a store being removed."""
         if self.pool is None:
-            def serial() -> Iterator[FrameResult]:
-                for t in tasks:
+            def serial() -> Iterator[Result]:
+                for t in items:
                     with _quiet_stderr():
-                        r = run_frames(t)
+                        r = fn(t)
                     yield r
 
             yield serial()
             return
         pool = self.pool
-        results = ordered_map(lambda t: pool.submit(run_frames, t), Future.result, tasks, 2 * self.n,
+        results = ordered_map(lambda t: pool.submit(fn, t), Future.result, items, 2 * self.n,
                               _cancel_and_wait)
         try:
             yield results
         finally:
             results.close()
+
+    def run(self, tasks: list[FrameTask]) -> AbstractContextManager[Iterator[FrameResult]]:
+        """`run_frames` of every task, in order (see `map`)."""
+        return self.map(run_frames, tasks)
 
 
 def _cancel_and_wait(futures: list[Future]) -> None:

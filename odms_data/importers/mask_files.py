@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import struct
 import zlib
+from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
@@ -79,21 +80,52 @@ def _read(path: Path) -> bytes:
         raise InputError(f"{path}: cannot be read ({e.strerror or e})") from None
 
 
-def read_mask(path: Path, threshold: int = DEFAULT_THRESHOLD) -> np.ndarray:
-    """(H, W) bool mask of the file at `path`, True = object."""
+def read_png(path: Path) -> np.ndarray:
+    """The PNG at `path` as stored (bit depth and channels kept, colour in OpenCV's BGR order),
+    checked before it is decoded."""
     data = _read(path)
-    if path.suffix.lower() == ".png":
-        _check_png(path, data)
-    else:
-        _check_jpeg(path, data)
-    # PNGs keep their bit depth (a 16-bit 0/1 label image would read as empty in 8 bits)
-    flag = cv2.IMREAD_UNCHANGED if path.suffix.lower() == ".png" else cv2.IMREAD_GRAYSCALE
+    _check_png(path, data)
+    return _decode(path, data, cv2.IMREAD_UNCHANGED)
+
+
+def _decode(path: Path, data: bytes, flag: int) -> np.ndarray:
     img = cv2.imdecode(np.frombuffer(data, np.uint8), flag)
     if img is None:
         raise InputError(f"{path}: cannot be decoded as an image")
+    return img
+
+
+def read_mask(path: Path, threshold: int = DEFAULT_THRESHOLD) -> np.ndarray:
+    """(H, W) bool mask of the file at `path`, True = object."""
+    if path.suffix.lower() == ".png":  # keeps the bit depth: a 16-bit 0/1 label image is not empty
+        img = read_png(path)
+    else:
+        data = _read(path)
+        _check_jpeg(path, data)
+        img = _decode(path, data, cv2.IMREAD_GRAYSCALE)
     if img.ndim == 3:
         img = cv2.cvtColor(img, cv2.COLOR_BGRA2GRAY if img.shape[2] == 4 else cv2.COLOR_BGR2GRAY)
     return binarize(img, threshold)
+
+
+@dataclass(frozen=True)
+class MaskFile:
+    """A mask image file as a `MaskSource`."""
+
+    path: Path
+
+    @property
+    def name(self) -> str:
+        return self.path.name
+
+    def __str__(self) -> str:
+        return str(self.path)
+
+    def size(self) -> tuple[int, int]:
+        return image_size(self.path)
+
+    def read(self, threshold: int) -> np.ndarray:
+        return read_mask(self.path, threshold)
 
 
 def binarize(img: np.ndarray, threshold: int = DEFAULT_THRESHOLD) -> np.ndarray:

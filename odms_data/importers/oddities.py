@@ -16,7 +16,7 @@ def example_oddities(plan: Plan, area: np.ndarray) -> list[dict[str, str]]:
     out = []
     for e, row in enumerate(plan.frame_index):
         frames = row[row >= 0]
-        names = [plan.files[f].name for f in frames]
+        names = [plan.masks[f].name for f in frames]
         steps = np.diff(plan.z[frames])
         if np.any(steps <= 0):
             j = int(np.argmax(steps <= 0))

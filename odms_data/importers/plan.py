@@ -1,13 +1,38 @@
-"""What an importer decides about a store before any mask is decoded: the `Plan`."""
+"""What an importer decides about a store before any mask is decoded: the `Plan`, and where each
+frame's mask comes from (a `MaskSource`: a mask file, or one instance in a label image)."""
 
 from __future__ import annotations
 
+import re
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 
+from ..errors import InputError
+from ..store.manifests import split_names
+
 DEFAULT_THRESHOLD = 128  # grey masks (JPEG, anti-aliased): pixels >= this are object, on the 8-bit scale
+
+
+class MaskSource(Protocol):
+    """Where one frame's mask comes from; sent to the decoding workers, so it must pickle.
+    `str()` names it in error messages."""
+
+    @property
+    def name(self) -> str:
+        """Short name for oddity details (a file name)."""
+        ...
+
+    def size(self) -> tuple[int, int]:
+        """(height, width), without decoding where possible; InputError naming the source."""
+        ...
+
+    def read(self, threshold: int) -> np.ndarray:
+        """(H, W) bool mask, True = object; InputError naming the source."""
+        ...
 
 
 @dataclass
@@ -17,7 +42,7 @@ class Plan:
     split: str
     domain: str
     source: str
-    files: list[Path]  # (F,) mask file of each frame row
+    masks: Sequence[MaskSource]  # (F,) where each frame row's mask comes from
     z: np.ndarray  # (F,) m
     depth: np.ndarray  # (F,) m, NaN where unknown
     frame_index: np.ndarray  # (E, N) frame rows, padded with -1
@@ -28,3 +53,18 @@ class Plan:
     frames_per_shard: int
     oddities: list[dict[str, str]] = field(default_factory=list)
     threshold: int = DEFAULT_THRESHOLD
+
+
+def store_name(name: str | None, out: Path, fallback: str, kind: str) -> str:
+    """The split name of an imported store: `name`, else the output's name up to its first dot
+    (else `fallback`, else `kind`, the kind of store) with other characters than letters, digits,
+    '.', '_' and '-' replaced; never an official split's name."""
+    if name is None:
+        name = re.sub(r"[^A-Za-z0-9._-]", "-", out.name.split(".")[0] or fallback).lstrip("._-")
+        name = name or kind
+    if not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9._-]*", name):
+        raise InputError(f"name '{name}': use letters, digits, '.', '_' and '-', starting with a letter "
+                         "or digit")
+    if name in split_names():
+        raise InputError(f"name '{name}' is an official split; choose another name for the {kind} store")
+    return name

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import math
 import os
-import re
 from collections.abc import Callable
 from pathlib import Path
 
@@ -20,11 +19,10 @@ import numpy as np
 from ..benchmark import protocol_windows
 from ..errors import InputError
 from ..store.format import StoreAttrs
-from ..store.manifests import split_names
 from .builder import BadFiles, build_store
 from .decoding import Workers
-from .mask_files import is_mask_file
-from .plan import DEFAULT_THRESHOLD, Plan
+from .mask_files import MaskFile, is_mask_file
+from .plan import DEFAULT_THRESHOLD, Plan, store_name
 
 COLUMNS = ("frame", "z", "depth")
 FRAMES_PER_CHUNK = 32
@@ -109,18 +107,6 @@ def read_positions(
     return files, np.array(z, np.float64), np.array(depth, np.float64) if has_depth else None, skipped
 
 
-def _store_name(name: str | None, out: Path, mask_dir: Path) -> str:
-    if name is None:
-        name = re.sub(r"[^A-Za-z0-9._-]", "-", out.name.split(".")[0] or mask_dir.name).lstrip("._-")
-        name = name or "recording"
-    if not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9._-]*", name):
-        raise InputError(f"name '{name}': use letters, digits, '.', '_' and '-', starting with a letter "
-                         "or digit")
-    if name in split_names():
-        raise InputError(f"name '{name}' is an official split; choose another name for a recording")
-    return name
-
-
 def make_plan(
     name: str, mask_dir: Path, files: list[Path], z: np.ndarray, depth: np.ndarray,
     windows: list[int] | None, n_obs: int, threshold: int, skipped: list[dict[str, str]],
@@ -145,7 +131,8 @@ def make_plan(
         ids, frame_index = [f"{name}/all"], np.arange(n)[None, :]
     d1 = depth[frame_index[:, 0]]
     return Plan(
-        split=name, domain="recording", source=f"recording {mask_dir.name}", files=files, z=z,
+        split=name, domain="recording", source=f"recording {mask_dir.name}",
+        masks=[MaskFile(f) for f in files], z=z,
         depth=depth, frame_index=frame_index, d1=d1, ids=ids, sources=[mask_dir.name] * len(ids),
         frames_per_chunk=FRAMES_PER_CHUNK, frames_per_shard=FRAMES_PER_SHARD,
         oddities=list(skipped), threshold=threshold,
@@ -185,7 +172,7 @@ def import_recording(
     if out is None:
         out = Path(mask_dir.resolve().name + (".h5" if fmt == "hdf5" else ".zarr"))
     out = Path(out)
-    name = _store_name(name, out, mask_dir.resolve())
+    name = store_name(name, out, mask_dir.resolve().name, "recording")
     files, z, depth, skipped = read_positions(positions, mask_dir, skip_bad)
     if depth is not None and d1 is not None:
         raise InputError(f"{positions}: has a depth column; give either per-frame depth or --d1, not both")
@@ -196,7 +183,7 @@ def import_recording(
             plan = make_plan(name, mask_dir, files, z, depth, windows, n_obs, threshold, skipped)
             done = 0
 
-            def step(k: int, total: int = len(plan.files)) -> None:
+            def step(k: int, total: int = len(plan.masks)) -> None:
                 nonlocal done
                 done += k
                 if progress is not None:
@@ -209,8 +196,8 @@ def import_recording(
             except BadFiles as e:
                 if not skip_bad:
                     raise
-                bad = {str(plan.files[row]) for row, _ in e.failures}
-                skipped = skipped + [{"example": plan.files[row].name, "kind": "skipped", "detail": m}
+                bad = {str(plan.masks[row]) for row, _ in e.failures}
+                skipped = skipped + [{"example": plan.masks[row].name, "kind": "skipped", "detail": m}
                                      for row, m in e.failures]
                 keep = [i for i, f in enumerate(files) if str(f) not in bad]
                 files, z, depth = [files[i] for i in keep], z[keep], depth[keep]

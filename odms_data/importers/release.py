@@ -29,6 +29,7 @@ from ..store.format import StoreAttrs
 from ..store.manifests import check_against_manifest, load_manifest, split_names
 from .builder import BadFiles, build_store
 from .decoding import Workers
+from .mask_files import MaskFile
 from .plan import Plan
 
 # (frames per mask chunk, frames per shard): robot one folder per chunk, normal/perturb one example.
@@ -139,14 +140,14 @@ def scan_split(
 
 def make_plan(split: str, folders: list[Folder], skipped: list[dict[str, str]]) -> Plan:
     domain = split.split("-")[0]
-    files: list[Path] = []
+    masks: list[MaskFile] = []
     z, depth, rows = [], [], []
     d1: list[float] = []
     ids: list[str] = []
     sources: list[str] = []
     for f in folders:
-        base = len(files)
-        files += f.files
+        base = len(masks)
+        masks += map(MaskFile, f.files)
         z.append(f.z)
         depth.append(f.depth)
         for eid, offsets, label in f.examples:
@@ -162,7 +163,7 @@ def make_plan(split: str, folders: list[Folder], skipped: list[dict[str, str]]) 
     fold = split.split("-")[1]
     return Plan(
         split=split, domain=domain, source=f"{RELEASE}, {fold}/{domain}",
-        files=files, z=np.concatenate(z) if z else np.zeros(0), depth=np.concatenate(depth) if depth
+        masks=masks, z=np.concatenate(z) if z else np.zeros(0), depth=np.concatenate(depth) if depth
         else np.zeros(0), frame_index=frame_index, d1=np.array(d1, np.float64), ids=ids,
         sources=sources, frames_per_chunk=fpc, frames_per_shard=fps, oddities=list(skipped),
     )
@@ -212,7 +213,7 @@ def import_release(
             path = out_dir / f"{name}{suffix}"
             while True:
                 plan = make_plan(name, folders, skipped)
-                total, done = len(plan.files), 0
+                total, done = len(plan.masks), 0
 
                 def step(k: int, name: str = name, total: int = total) -> None:
                     nonlocal done

@@ -51,6 +51,11 @@ class FrameStats:
         """Record the statistics of `mask` (a region of a frame at x_off, y_off) as frame i."""
         self.area[i], self.largest_area[i], self.bbox[i] = mask_stats(mask, x_off, y_off)
 
+    def copy(self, src: int, dst: int) -> None:
+        """Frame dst has the statistics of frame src."""
+        for a in (self.area, self.largest_area, self.bbox):
+            a[dst] = a[src]
+
 
 def mask_stats(mask: np.ndarray, x_off: int = 0, y_off: int = 0) -> tuple[int, int, tuple]:
     """Area, area of the largest 8-connected region and bounding box of one binary mask."""

@@ -1,0 +1,352 @@
+"""Importing SYNTHIA-SEQS sequences, on sequences rendered here (synthia_scenes.py) in SYNTHIA's
+layout: 760x1280 frames of a camera driving past still, moving, leaving and hidden objects."""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import shutil
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+import synthia_scenes as scenes
+from click.testing import CliRunner
+
+from odms_data.cli import main
+from odms_data.errors import InputError
+from odms_data.evaluation.vosde import vosde
+from odms_data.importers.decoding import Workers
+from odms_data.importers.synthia import import_synthia, plan_store, read_pose, scan_sequences
+from odms_data.importers.synthia_protocol import PoseConvention, Selection
+from odms_data.store.reader import open_store
+from odms_data.store.validate import validate
+
+CAM = scenes.CAMERA
+RELEASE_NAME = re.compile(r"(SYNTHIA-SEQS-\d\d-[A-Z]+)_(\d+)_(\d+)_(\d+)")
+
+
+def backing_up() -> scenes.Scene:
+    """12 frames, 1.25 m apart except a 0.5 m step backwards from frame 6 to 7; one still car."""
+    steps = [1.25] * 11
+    steps[6] = -0.5
+    return scenes.Scene("SYNTHIA-SEQS-02-FOG", steps, [
+        scenes.Thing(3, scenes.CAR, "box", (0.0, 0.75, -30.0), (0.9, 0.75, 0.05))], yaw_rate=0.0)
+
+
+@pytest.fixture(scope="session")
+def seqs(tmp_path_factory) -> dict:
+    root = tmp_path_factory.mktemp("synthia")
+    street, fog = scenes.street(), backing_up()
+    return {"scenes": {s.name: s for s in (street, fog)},
+            "dirs": [scenes.write_sequence(root, street), scenes.write_sequence(root, fog)]}
+
+
+@pytest.fixture(scope="session")
+def scanned(seqs):
+    with Workers(1) as pool:
+        return scan_sequences(seqs["dirs"], pool)
+
+
+@pytest.fixture(scope="session")
+def store(seqs, tmp_path_factory) -> dict:
+    """The paper's rules, but windows starting every 3 frames (a third of the frames to write)."""
+    out = tmp_path_factory.mktemp("synthia-store") / "street.zarr"
+    path, attrs, summary = import_synthia(seqs["dirs"], out, selection=Selection(stride=3), workers=2)
+    return {"path": path, "attrs": attrs, "summary": summary}
+
+
+def parse_id(eid: str) -> tuple[str, int, int, int]:
+    """(sequence, first frame, frames, instance) of an example id <split>/<release folder name>."""
+    m = RELEASE_NAME.fullmatch(eid.split("/", 1)[1])
+    assert m, eid
+    return m.group(1), int(m.group(2)), int(m.group(3)), int(m.group(4))
+
+
+def test_masks_z_and_depth_follow_the_scene(seqs, store):
+    renders: dict = {}
+    with open_store(store["path"]) as s:
+        assert (s.attrs.domain, s.attrs.split, s.attrs.image_size) == ("driving", "street", (760, 1280))
+        for eid in s.example_ids:
+            name, first, n, instance = parse_id(eid)
+            scene, ex = seqs["scenes"][name], s.example(eid)
+            closest = first + n - 1
+            frames = range(closest, first - 1, -1)  # closest first
+            assert ex.n == n == 10
+            np.testing.assert_allclose(ex.z, [scene.camera_move(closest, f) for f in frames], atol=1e-9)
+            for j, f in enumerate(frames):
+                if (name, f) not in renders:
+                    renders[name, f] = scenes.render(scene, f)
+                cls, inst, depth = renders[name, f]
+                truth = (inst == instance) & np.isin(cls, (8, 10, 11))
+                assert np.array_equal(ex.masks[j], truth), (eid, f)
+                if truth.any():  # the depth PNGs hold whole centimetres
+                    assert ex.depth[j] == pytest.approx(depth[truth].mean(), abs=0.005)
+                else:
+                    assert math.isnan(ex.depth[j])
+            assert ex.d1 == ex.depth[0]
+
+
+def test_d1_of_a_car_back_is_its_distance(seqs, store):
+    """Still car 12 shows the camera its back, a plane 0.05 m nearer than its centre."""
+    scene = seqs["scenes"]["SYNTHIA-SEQS-01-DAWN"]
+    back = np.add(scene.things[0].centre, (0, 0, 0.05))
+    with open_store(store["path"]) as s:
+        ids = [e for e in s.example_ids if parse_id(e)[::3] == ("SYNTHIA-SEQS-01-DAWN", 12)]
+        assert len(ids) == 5
+        for eid in ids:
+            _, first, n, _ = parse_id(eid)
+            M = scene.pose(first + n - 1)
+            distance = np.dot(back - M[:3, 3], -M[:3, 2])
+            assert s.example(eid, masks=False).d1 == pytest.approx(distance, rel=0.005)
+
+
+def test_vosde_recovers_the_depth_of_still_objects(store):
+    with open_store(store["path"]) as s:
+        result = vosde(s)
+        keep = [i for i, e in enumerate(s.example_ids) if parse_id(e)[3] in scenes.STILL_AND_CLEAR]
+        errors = np.abs(result.d1[keep] - s.d1[keep]) / s.d1[keep]
+    assert len(keep) == 15
+    assert errors.mean() < 0.03 and errors.max() < 0.08
+
+
+def test_store_is_valid_and_records_the_oddities(store):
+    report = validate(store["path"])
+    assert report.ok, report.problems
+    kinds: dict[str, set] = {}
+    for o in store["attrs"].oddities:
+        kinds.setdefault(o["kind"], set()).add(parse_id(o["example"])[::3])
+    assert kinds.pop("z-not-increasing") == {("SYNTHIA-SEQS-02-FOG", 3)}  # the camera backing up
+    hidden = {("SYNTHIA-SEQS-01-DAWN", 22)}  # behind the kiosk in frames 3 to 5
+    assert kinds.pop("empty-mask") == kinds.pop("depth-not-finite") == hidden
+    assert not kinds
+    counts = {s["name"]: s for s in store["summary"]["sequences"]}
+    assert counts["SYNTHIA-SEQS-01-DAWN"] == {
+        "name": "SYNTHIA-SEQS-01-DAWN", "frames": 24, "tracks": {"car": 3, "pedestrian": 3, "bicycle": 1},
+        "examples": {"car": 12, "pedestrian": 15, "bicycle": 5}}  # the bicycle is hidden in frames 0 and 1
+    assert counts["SYNTHIA-SEQS-02-FOG"]["examples"] == {"car": 1}
+
+
+def ids_of(plan) -> set[tuple[int, int, int]]:
+    return {parse_id(e)[1:] for e in plan.ids if "DAWN" in e}
+
+
+def instances(ids: set[tuple[int, int, int]]) -> set[int]:
+    return {i for _, _, i in ids}
+
+
+def test_selection_rules_keep_and_drop_what_they_should(seqs, scanned):
+    paper = ids_of(plan_store(scanned, Selection(), "s")[0])
+    assert instances(paper) == {12, 7, 30, 5, 9, 41, 22}
+    assert {first for first, _, i in paper if i == 5} == set(range(6))  # car 5 is gone after frame 14
+    no_border = ids_of(plan_store(scanned, Selection(border=False), "s")[0])
+    assert paper - no_border == {(first, 10, 5) for first in range(2, 6)}  # at the border in frames 11..14
+    no_hidden = ids_of(plan_store(scanned, Selection(occluded=False), "s")[0])
+    # 9 is always partly behind car 41; 22 passes behind the kiosk; the bicycle comes out behind car 12
+    assert instances(paper - no_hidden) == {9, 22, 30} and 9 not in instances(no_hidden)
+    assert instances(ids_of(plan_store(scanned, Selection(classes=(11,)), "s")[0])) == {30}
+    plan, _ = plan_store(scanned, Selection(d1=(10.0, 20.0)), "s")
+    base, _ = plan_store(scanned, Selection(), "s")
+    assert ((plan.d1 >= 10) & (plan.d1 <= 20)).all()
+    assert len(plan.d1) == ((base.d1 >= 10) & (base.d1 <= 20)).sum()
+    # the turning camera moves 11.24 m in 10 frames, the backing-up one 8.25 to 10.75 m
+    assert not plan_store(scanned, Selection(move=(11.3, 68.5)), "s")[0].ids
+    street = seqs["scenes"]["SYNTHIA-SEQS-01-DAWN"]
+    area = {f: np.bincount(scenes.render(street, f)[1].ravel()) for f in range(street.n_frames)}
+    large = ids_of(plan_store(scanned, Selection(min_area=5000), "s")[0])
+    assert large == {(first, n, i) for first, n, i in paper if area[first + n - 1][i] >= 5000}
+    assert 0 < len(large) < len(paper)
+
+
+def test_windows_share_rows_only_with_the_same_closest_frame(scanned):
+    one, _ = plan_store(scanned, Selection(frames=(10,)), "s")
+    two, _ = plan_store(scanned, Selection(frames=(10, 12)), "s")
+    added = len(two.ids) - len(one.ids)
+    assert added > 0 and len(two.masks) == len(one.masks) + 2 * added  # 12-frame windows add two rows
+    rows: dict[tuple, list[np.ndarray]] = {}
+    for eid, row in zip(two.ids, two.frame_index, strict=True):
+        name, first, n, instance = parse_id(eid)
+        rows.setdefault((name, instance, first + n - 1), []).append(row[row >= 0])
+    for shared in rows.values():
+        longest = max(shared, key=len)
+        assert all(np.array_equal(r, longest[: len(r)]) for r in shared)
+    strided = ids_of(plan_store(scanned, Selection(stride=3), "s")[0])
+    assert {first % 3 for first, _, i in strided if i == 7} == {0} and strided <= ids_of(one)
+
+
+def numbers(values: np.ndarray) -> str:
+    return " ".join(repr(float(v)) for v in values)
+
+
+def test_read_pose_conventions(tmp_path):
+    """A camera at (1, 2, 3) turned 30 degrees left, looking along -z of its pose."""
+    t = math.radians(30)
+    M = np.eye(4)
+    M[:3, 0], M[:3, 2], M[:3, 3] = (math.cos(t), 0, -math.sin(t)), (math.sin(t), 0, math.cos(t)), (1, 2, 3)
+    axis = -M[:3, 2]
+    f = tmp_path / "000000.txt"
+    f.write_text(numbers(M.ravel(order="F")))
+    centre, forward = read_pose(f, PoseConvention())
+    np.testing.assert_allclose(centre, (1, 2, 3))
+    np.testing.assert_allclose(forward, axis)
+    np.testing.assert_allclose(read_pose(f, PoseConvention(forward="+z"))[1], -axis)
+    last_row = r"000000.txt: the matrix's last row is 1 2 3 1, not 0 0 0 1 .*--matrix-order column-major"
+    with pytest.raises(InputError, match=last_row):
+        read_pose(f, PoseConvention(order="row-major"))
+    f.write_text(numbers(np.linalg.inv(M).ravel(order="C")))
+    centre, forward = read_pose(f, PoseConvention(order="row-major", direction="world-to-camera"))
+    np.testing.assert_allclose(centre, (1, 2, 3), atol=1e-12)
+    np.testing.assert_allclose(forward, axis, atol=1e-12)
+    M[:3, :3] *= 2
+    f.write_text(numbers(M.ravel(order="F")))
+    with pytest.raises(InputError, match="000000.txt: the rotation part is not orthonormal"):
+        read_pose(f, PoseConvention())
+
+
+def run_cli(*args):
+    return CliRunner().invoke(main, ["import", "synthia", *map(str, args)])
+
+
+def error_line(r) -> str:
+    """The one line of a refused import; progress bars on stderr may precede it, nothing else."""
+    assert r.exit_code == 2 and not r.stdout, r.output
+    *bars, error = r.stderr.splitlines()
+    assert all(b.startswith("importing SYNTHIA-SEQS-") for b in bars), r.stderr
+    return error
+
+
+@pytest.fixture(scope="session")
+def small(tmp_path_factory) -> Path:
+    """6 frames of the street."""
+    return scenes.write_sequence(tmp_path_factory.mktemp("small"), scenes.street(6))
+
+
+def spoiled(small: Path, tmp_path: Path, spoil) -> Path:
+    seq = tmp_path / small.name
+    shutil.copytree(small, seq)
+    spoil(seq)
+    return seq
+
+
+def truncate(path: Path) -> None:
+    path.write_bytes(path.read_bytes()[:3000])
+
+
+def eight_bit(path: Path) -> None:
+    cv2.imwrite(str(path), np.zeros((760, 1280, 3), np.uint8))
+
+
+def one_channel(path: Path) -> None:
+    cv2.imwrite(str(path), cv2.imread(str(path), cv2.IMREAD_UNCHANGED)[..., 2])
+
+
+def smaller(path: Path) -> None:
+    cv2.imwrite(str(path), cv2.imread(str(path), cv2.IMREAD_UNCHANGED)[:380])
+
+
+def transposed(path: Path) -> None:
+    path.write_text(" ".join(np.array(path.read_text().split()).reshape(4, 4).T.ravel()))
+
+
+SHORT = ("--frames", 3, "--move", 1, 60, "--workers", 1)
+BAD_INPUTS = {
+    "missing folder": (lambda s: shutil.rmtree(s / "Depth" / CAM), f"Depth/{CAM}: no such folder"),
+    "frame counts differ": (lambda s: (s / "Depth" / CAM / "000002.png").unlink(),
+                            f"Depth/{CAM}/000002.png: missing, but GT/LABELS has frame 2"),
+    "unreadable label": (lambda s: truncate(s / "GT/LABELS" / CAM / "000002.png"),
+                         f"GT/LABELS/{CAM}/000002.png: truncated PNG"),
+    "8-bit label": (lambda s: eight_bit(s / "GT/LABELS" / CAM / "000002.png"),
+                    "000002.png: 8-bit PNG; SYNTHIA label images are 16-bit"),
+    "camera file too short": (lambda s: (s / "CameraParams" / CAM / "000002.txt").write_text("1 0 0 0 " * 3),
+                              "000002.txt: expected 16 numbers (a 4x4 matrix), found 12"),
+    "camera file not numbers": (lambda s: (s / "CameraParams" / CAM / "000002.txt").write_text(
+        "1 0 0 0 0 1 0 0 0 0 one 0 0 0 0 1"), "000002.txt: 'one' is not a number"),
+    "camera file in the other order": (lambda s: transposed(s / "CameraParams" / CAM / "000002.txt"),
+                                       "000002.txt: the matrix's last row is -0.00499999 1.5 -2.49999 1"),
+    "empty camera file": (lambda s: (s / "CameraParams" / CAM / "000002.txt").write_text(""),
+                          "000002.txt: expected 16 numbers (a 4x4 matrix), found 0"),
+    "zero-byte depth PNG": (lambda s: (s / "Depth" / CAM / "000002.png").write_bytes(b""),
+                            f"Depth/{CAM}/000002.png: not a PNG file"),
+    "1-channel label": (lambda s: one_channel(s / "GT/LABELS" / CAM / "000002.png"),
+                        "000002.png: 1 channel(s); SYNTHIA label images have 3"),
+    "depth of another size": (lambda s: smaller(s / "Depth" / CAM / "000002.png"),
+                              "000002.png: 380x1280 pixels, but its label image 000002.png has 760x1280"),
+}
+
+
+@pytest.mark.parametrize("case", BAD_INPUTS)
+def test_bad_input_is_one_line_naming_the_file(small, tmp_path, case):
+    spoil, expect = BAD_INPUTS[case]
+    seq = spoiled(small, tmp_path, spoil)
+    out = tmp_path / "out.zarr"
+    error = error_line(run_cli(seq, "-o", out, *SHORT))
+    assert error.startswith(f"odms-data: error: {seq}/") and expect in error, error
+    assert not out.exists() and not list(tmp_path.glob("out.zarr*"))
+
+
+def test_cli_options_reach_the_protocol(small, tmp_path):
+    out = tmp_path / "cars.h5"
+    options = ("--classes", "car,pedestrian", "--frames", "3,4", "--stride", 2, "--min-area", 300,
+               "--no-border", "--no-occluded", "--d1-range", 5, 40, "--max-gap", 0)
+    r = run_cli(small, "-o", out, "--json", *options, "--move", 1, 60, "--workers", 1)
+    assert r.exit_code == 0, r.output
+    summary = json.loads(r.output)
+    rules = Selection(classes=(8, 10), frames=(3, 4), stride=2, min_area=300, border=False, occluded=False,
+                      move=(1, 60), d1=(5, 40), max_gap=0)
+    with Workers(1) as pool:
+        scanned = scan_sequences([small], pool)
+    plan, _ = plan_store(scanned, rules, "cars")
+    everything, _ = plan_store(scanned, Selection(frames=(3, 4), move=(1, 60)), "cars")
+    assert 0 < len(plan.ids) < len(everything.ids)
+    with open_store(out) as s:
+        assert s.example_ids == plan.ids
+    assert (summary["split"], summary["examples"]) == ("cars", len(plan.ids))
+    r = run_cli(small, "-o", tmp_path / "all.zarr", "--frames", 3, "--move", 1, 60, "--workers", 1)
+    assert r.exit_code == 0, r.output
+    head = "SYNTHIA-SEQS-01-DAWN: 6 frames; tracks: 3 car, 3 pedestrian, 1 bicycle; examples: "
+    assert r.stdout.startswith(head), r.output
+    assert "wrote " in r.stdout and " frames, 0 oddities recorded, digest " in r.stdout
+    assert r.stderr.splitlines() == ["importing SYNTHIA-SEQS-01-DAWN", "importing all.zarr (writing)"]
+
+
+def test_the_folder_above_the_sequences_gets_a_hint(small, tmp_path):
+    error = error_line(run_cli(small.parent, "-o", tmp_path / "out.zarr"))
+    above = small.parent
+    assert error == (f"odms-data: error: {above}/GT/LABELS/{CAM}: no such folder ({above} holds "
+                     f"sequence folders; give those, e.g. {small})")
+
+
+def test_a_class_absent_from_every_sequence_is_an_error(small, tmp_path):
+    error = error_line(run_cli(small, "-o", tmp_path / "out.zarr", "--classes", "car,15", *SHORT))
+    assert error == (f"odms-data: error: {small}/GT/LABELS/{CAM}: no instance of class 15 "
+                     "(schemas/SYNTHIA.md) in any label image")
+    error = error_line(run_cli(small, "-o", tmp_path / "out.zarr", "--classes", "lorry", *SHORT))
+    assert error.startswith("odms-data: error: --classes 'lorry': not a class; use car, pedestrian, bicycle")
+    assert not list(tmp_path.iterdir())
+
+
+def test_skip_bad_leaves_out_a_frame_and_splits_its_tracks(small, tmp_path):
+    seq = spoiled(small, tmp_path, lambda s: truncate(s / "GT/LABELS" / CAM / "000002.png"))
+    out = tmp_path / "out.zarr"
+    r = run_cli(seq, "-o", out, "--skip-bad", "--json", *SHORT)
+    assert r.exit_code == 0, r.output
+    summary = json.loads(r.output)
+    assert len(summary["skipped"]) == 1 and "000002.png: truncated PNG" in summary["skipped"][0]
+    with open_store(out) as s:  # windows of 3 frames: only frames 3 to 5 remain together
+        assert {parse_id(e)[1:3] for e in s.example_ids} == {(3, 3)}
+        assert [o["kind"] for o in s.attrs.oddities] == ["skipped"]
+
+
+def test_release_folder_names_and_camera_moves_follow_the_same_rules(official_data_dir):
+    """The release's driving folders: <sequence>_<first>_<frames>_<instance>, consecutive SYNTHIA
+    frame numbers from <first>, and camera_move 0 at the last (closest) frame, as imported here."""
+    folders = [f for fold in ("val", "test") for f in (official_data_dir / fold / "driving").iterdir()]
+    assert len(folders) == 1250
+    for folder in folders:
+        _, first, n, _ = parse_id(f"x/{folder.name}")
+        pngs = sorted(int(p.stem) for p in folder.glob("*.png"))
+        assert pngs == list(range(first, first + n)), folder
+        moves = [float(line.split()[0]) for line in (folder / "info.txt").read_text().splitlines()[1:]]
+        assert abs(moves[-1]) < 1e-12 and min(moves[:-1]) > -0.01, folder
