@@ -23,3 +23,11 @@ class StoreLockedError(StoreError):
 
 class DigestMismatchError(OdmsError):
     """A store's content digest differs from the one its split manifest records."""
+
+
+class OutputExistsError(OdmsError):
+    """An output file exists and `overwrite` was not asked for, or is something odms-data does not replace."""
+
+
+class WriteError(OdmsError):
+    """An output could not be written (a full disk, no permission); the message names its path."""

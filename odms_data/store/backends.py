@@ -6,6 +6,7 @@ in Zarr, a JSON string in HDF5 (HDF5 attributes cannot nest).
 
 from __future__ import annotations
 
+import io
 import json
 from pathlib import Path
 from typing import Any, Literal
@@ -79,6 +80,10 @@ class ZarrBackend(Backend):
             self.group = zarr.open_group(
                 store=str(path), mode=mode, zarr_format=3, storage_options=storage_options(path)
             )
+        except OSError:
+            if mode == "w":
+                raise  # a full disk, say: the writer names the store
+            raise StoreError(f"{path}: not a readable Zarr v3 store (cannot be read)") from None
         except Exception as e:  # zarr raises several types for "not a group"
             raise StoreError(f"{path}: not a readable Zarr v3 store ({type(e).__name__}: {e})") from e
 
@@ -113,6 +118,32 @@ class ZarrBackend(Backend):
         )
 
 
+class _DropAfterFailure(io.FileIO):
+    """The file under an HDF5 store being written (h5py's fileobj driver): after its first failed
+    write it accepts and drops every later one, and `failed` holds that first error.
+
+    libhdf5 cannot close a file whose closing flush fails: the failed close leaves a file id that
+    is freed twice when it is closed again or at exit, a segmentation fault (h5py issues 914 and
+    2160). With this file the flush succeeds, so the store, which is then removed, closes cleanly.
+    """
+
+    failed: OSError | None = None
+
+    def write(self, b) -> int:
+        if self.failed is not None:
+            return len(memoryview(b))
+        try:
+            return super().write(b) or 0
+        except OSError as e:
+            self.failed = e
+            raise
+
+    def truncate(self, size: int | None = None) -> int:
+        if self.failed is not None:
+            return self.tell() if size is None else size
+        return super().truncate(size)
+
+
 class Hdf5Backend(Backend):
     kind = "hdf5"
 
@@ -120,8 +151,17 @@ class Hdf5Backend(Backend):
         import h5py
 
         self.path = path
+        self._raw: _DropAfterFailure | None = None
+        if mode == "w":
+            self._raw = _DropAfterFailure(path, "w+b")
+            try:
+                self.file = h5py.File(self._raw, "w")
+            except BaseException:
+                self._raw.close()
+                raise
+            return
         try:
-            self.file = h5py.File(path, {"r": "r", "r+": "r+", "w": "w"}[mode])
+            self.file = h5py.File(path, mode)
         except OSError as e:
             raise StoreError(f"{path}: not a readable HDF5 file ({e})") from e
 
@@ -168,13 +208,27 @@ class Hdf5Backend(Backend):
         )
 
     def close(self) -> None:
-        self.file.close()
+        try:
+            self.file.close()
+        finally:
+            if self._raw is not None:
+                self._raw.close()
+                if self._raw.failed is not None:  # a failed write that someone swallowed
+                    raise self._raw.failed
 
 
 def open_backend(path: str, mode: Mode = "r", fmt: str | None = None) -> Backend:
     """Open the store at `path`; `fmt` defaults to what `detect_format` finds."""
     fmt = fmt or detect_format(path)
-    if mode == "r" and not is_url(path) and not Path(path).exists():
-        raise StoreError(f"{path}: no such store")
+    local = Path(path) if not is_url(path) else None
+    if mode != "w" and local is not None:
+        if not local.exists():
+            raise StoreError(f"{path}: no such store")
+        if local.is_file() and fmt == "zarr":  # a file without the HDF5 signature
+            what = ("not an HDF5 file (it lacks the HDF5 signature)" if local.suffix.lower() in HDF5_SUFFIXES
+                    else "not a store (an odms-data store is a Zarr folder or an HDF5 file)")
+            raise StoreError(f"{path}: {what}")
+        if local.is_dir() and not (local / "zarr.json").exists():
+            raise StoreError(f"{path}: not a Zarr v3 store (the folder has no zarr.json)")
     return (ZarrBackend if fmt == "zarr" else Hdf5Backend)(str(path), mode)
 
