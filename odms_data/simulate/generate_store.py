@@ -9,7 +9,7 @@ shard size.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future
 
 import numpy as np
@@ -18,14 +18,16 @@ from ..errors import InputError
 from ..parallel import ordered_map, spawn_pool
 from ..store.digest import StoreDigest
 from ..store.format import StoreAttrs
+from ..store.masks import packed_width
 from ..store.writer import Layout, StoreWriter
-from .params import DEFAULT_EXAMPLES_PER_SHARD, GeneratorParams
+from .params import DEFAULT_EXAMPLES_PER_SHARD, MAX_FRAMES, GeneratorParams
 from .shards import SOURCE, ShardResult, ShardTask, example_ids, run_shard
 
 Progress = Callable[[int], None]
+SHARD_BYTES = 2**28  # the most packed mask bytes one shard task holds
 
 
-def _run_tasks(tasks: list[ShardTask], workers: int, progress: Progress | None) -> Iterator[ShardResult]:
+def _run_tasks(tasks: Iterable[ShardTask], workers: int, progress: Progress | None) -> Iterator[ShardResult]:
     """Results in task order, each counted by `progress` as it comes."""
     for r in _run_local(tasks, workers):
         if progress:
@@ -33,7 +35,7 @@ def _run_tasks(tasks: list[ShardTask], workers: int, progress: Progress | None) 
         yield r
 
 
-def _run_local(tasks: list[ShardTask], workers: int) -> Iterator[ShardResult]:
+def _run_local(tasks: Iterable[ShardTask], workers: int) -> Iterator[ShardResult]:
     """Results in task order; at most 2 * workers tasks in flight."""
     if workers <= 1:
         yield from map(run_shard, tasks)
@@ -69,7 +71,11 @@ def generate(
     if examples_per_shard < 1:
         raise InputError(f"examples per shard must be at least 1, got {examples_per_shard}")
     n, (H, W) = params.n_obs, params.image_size
-    eps = min(examples_per_shard, count)
+    if count * n > MAX_FRAMES:
+        raise InputError(f"{count} examples of {n} frames make {count * n:.3g} frames; a store holds at "
+                         f"most {MAX_FRAMES:.3g} (2^40)")
+    # a shard's masks are held in memory by its task: at most SHARD_BYTES, whatever was asked
+    eps = max(1, min(examples_per_shard, count, SHARD_BYTES // (n * H * packed_width(W))))
     ids_width = len(example_ids(split, count, count - 1, count)[0].encode())
     layout = Layout(
         height=H, width=W, n_frames=count * n, n_examples=count, max_obs=n,
@@ -79,10 +85,10 @@ def generate(
     with StoreWriter(path, fmt, overwrite=overwrite) as w:
         w.create(layout)
         target = os.path.abspath(w.partial) if w.local else w.partial  # workers may have another cwd
-        tasks = [
+        tasks = (  # made as they are run: a billion examples start at once
             ShardTask(target, w.format, params, seed, split, count, s, min(s + eps, count))
             for s in range(0, count, eps)
-        ]
+        )
         if scheduler is None:
             results = _run_tasks(tasks, workers, progress)
         else:
