@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import json
-
 import click
 import numpy as np
 
+from ..outputs import check_new_file
 from ..store.reader import open_store
+from . import echo_json
 from .progress import progress
 
 
@@ -27,8 +27,8 @@ def validate(store, as_json):
 
     report = validate_store(store)
     if as_json:
-        click.echo(json.dumps({"path": report.path, "ok": report.ok, "problems": report.problems,
-                               "warnings": report.warnings, "digest": report.digest}, indent=2))
+        echo_json({"path": report.path, "ok": report.ok, "problems": report.problems,
+                   "warnings": report.warnings, "digest": report.digest})
     else:
         for w in report.warnings:
             click.echo(f"warning: {store}: {w}")
@@ -60,7 +60,7 @@ def info(store, as_json):
             "empty_masks": int((s.area == 0).sum()),
         }
     if as_json:
-        click.echo(json.dumps(summary, indent=2))
+        echo_json(summary)
         return
     gen = a.generator
     lines = [
@@ -108,16 +108,21 @@ def convert(src, dst, fmt, overwrite):
 @click.command()
 @click.argument("store", type=click.Path())
 @click.argument("example_id")
-@click.option("-o", "--output", type=click.Path(), required=True, help="PNG file to write.")
-def show(store, example_id, output):
+@click.option("-o", "--output", type=click.Path(), required=True,
+              help="Image file to write (PNG, or another format by its suffix).")
+@click.option("--overwrite", is_flag=True, help="Replace an existing image file.")
+def show(store, example_id, output, overwrite):
     """Draw one example's masks as a contact sheet, with z and depth under each.
 
     \b
     Example:
       odms-data show sim-val.zarr sim-val/000042 -o sheet.png
     """
-    from ..store.contact_sheet import contact_sheet
+    from ..store.contact_sheet import contact_sheet, image_format, save_image
 
+    image_format(output)
+    check_new_file(output, overwrite, "-o")
     with open_store(store) as s:
-        contact_sheet(s.example(example_id)).save(output)
+        sheet = contact_sheet(s.example(example_id))
+    save_image(sheet, output, overwrite=overwrite)
     click.echo(f"wrote {output}")
