@@ -65,6 +65,9 @@ class Backend:
     ) -> Any:
         raise NotImplementedError
 
+    def check(self) -> None:
+        """Raise the error of a write that failed since the store was opened (see _FailSafeFile)."""
+
     def close(self) -> None:
         pass
 
@@ -118,30 +121,33 @@ class ZarrBackend(Backend):
         )
 
 
-class _DropAfterFailure(io.FileIO):
-    """The file under an HDF5 store being written (h5py's fileobj driver): after its first failed
-    write it accepts and drops every later one, and `failed` holds that first error.
+class _FailSafeFile(io.FileIO):
+    """The file under an HDF5 store being written (h5py's fileobj driver). A write that fails is
+    not reported to libhdf5: the error is kept in `failed` and that write and every later one are
+    dropped, and the writer raises the error after the call that met it (`Hdf5Backend.check`).
 
-    libhdf5 cannot close a file whose closing flush fails: the failed close leaves a file id that
-    is freed twice when it is closed again or at exit, a segmentation fault (h5py issues 914 and
-    2160). With this file the flush succeeds, so the store, which is then removed, closes cleanly.
+    libhdf5 cannot recover from a failed write: a file whose flush or close failed leaves a file
+    id that is freed twice when it is closed again or at exit, a segmentation fault (h5py issues
+    914 and 2160). Seeing only successful writes, it closes cleanly; the store is then removed.
     """
 
     failed: OSError | None = None
 
     def write(self, b) -> int:
-        if self.failed is not None:
-            return len(memoryview(b))
-        try:
-            return super().write(b) or 0
-        except OSError as e:
-            self.failed = e
-            raise
+        if self.failed is None:
+            try:
+                return super().write(b) or 0
+            except OSError as e:
+                self.failed = e
+        return len(memoryview(b))
 
     def truncate(self, size: int | None = None) -> int:
-        if self.failed is not None:
-            return self.tell() if size is None else size
-        return super().truncate(size)
+        if self.failed is None:
+            try:
+                return super().truncate(size)
+            except OSError as e:
+                self.failed = e
+        return self.tell() if size is None else size
 
 
 class Hdf5Backend(Backend):
@@ -151,9 +157,9 @@ class Hdf5Backend(Backend):
         import h5py
 
         self.path = path
-        self._raw: _DropAfterFailure | None = None
+        self._raw: _FailSafeFile | None = None
         if mode == "w":
-            self._raw = _DropAfterFailure(path, "w+b")
+            self._raw = _FailSafeFile(path, "w+b")
             try:
                 self.file = h5py.File(self._raw, "w")
             except BaseException:
@@ -207,14 +213,17 @@ class Hdf5Backend(Backend):
             compression_opts=GZIP_LEVEL, fillvalue=0,
         )
 
+    def check(self) -> None:
+        if self._raw is not None and self._raw.failed is not None:
+            raise self._raw.failed
+
     def close(self) -> None:
         try:
             self.file.close()
         finally:
             if self._raw is not None:
                 self._raw.close()
-                if self._raw.failed is not None:  # a failed write that someone swallowed
-                    raise self._raw.failed
+        self.check()
 
 
 def open_backend(path: str, mode: Mode = "r", fmt: str | None = None) -> Backend:

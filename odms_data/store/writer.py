@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, StoreError, StoreExistsError
-from ..outputs import DISK_FULL, fsync_tree, output_lock, remove, sync_parent, write_error
+from ..outputs import DISK_FULL, fsync_tree, output_lock, remove, sync_parent, uninterrupted, write_error
 from .backends import (
     GZIP_LEVEL,
     HDF5_MAGIC,
@@ -168,31 +168,32 @@ class StoreWriter:
     # --- content -----------------------------------------------------------------------
     def create(self, layout: Layout) -> None:
         """Create every array of the store with the given shapes and chunking."""
-        self.layout = L = layout
-        self.backend = b = open_backend(self.partial, "w", self.format)
-        F, E, fs, es = L.n_frames, L.n_examples, L.frames_per_shard, L.examples_per_chunk
-        pw = packed_width(L.width)
-        self.arrays = {
-            "masks": b.create_array(
-                "masks", (F, L.height, pw), FRAME_ARRAYS["masks"], (L.frames_per_chunk, L.height, pw),
-                shards=(fs, L.height, pw),
-            ),
-            "z": b.create_array("z", (F,), FRAME_ARRAYS["z"], (fs,)),
-            "depth": b.create_array("depth", (F,), FRAME_ARRAYS["depth"], (fs,)),
-            "area": b.create_array("area", (F,), FRAME_ARRAYS["area"], (fs,)),
-            "largest_area": b.create_array("largest_area", (F,), FRAME_ARRAYS["largest_area"], (fs,)),
-            "bbox": b.create_array("bbox", (F, 4), FRAME_ARRAYS["bbox"], (fs, 4)),
-            "frame_index": b.create_array(
-                "frame_index", (E, L.max_obs), EXAMPLE_ARRAYS["frame_index"], (es, L.max_obs)
-            ),
-            "d1": b.create_array("d1", (E,), EXAMPLE_ARRAYS["d1"], (es,)),
-            "example_id": b.create_array(
-                "example_id", (E, L.id_width), EXAMPLE_ARRAYS["example_id"], (es, L.id_width)
-            ),
-            "source": b.create_array(
-                "source", (E, L.source_width), EXAMPLE_ARRAYS["source"], (es, L.source_width)
-            ),
-        }
+        with uninterrupted():
+            self.layout = L = layout
+            self.backend = b = open_backend(self.partial, "w", self.format)
+            F, E, fs, es = L.n_frames, L.n_examples, L.frames_per_shard, L.examples_per_chunk
+            pw = packed_width(L.width)
+            self.arrays = {
+                "masks": b.create_array(
+                    "masks", (F, L.height, pw), FRAME_ARRAYS["masks"], (L.frames_per_chunk, L.height, pw),
+                    shards=(fs, L.height, pw),
+                ),
+                "z": b.create_array("z", (F,), FRAME_ARRAYS["z"], (fs,)),
+                "depth": b.create_array("depth", (F,), FRAME_ARRAYS["depth"], (fs,)),
+                "area": b.create_array("area", (F,), FRAME_ARRAYS["area"], (fs,)),
+                "largest_area": b.create_array("largest_area", (F,), FRAME_ARRAYS["largest_area"], (fs,)),
+                "bbox": b.create_array("bbox", (F, 4), FRAME_ARRAYS["bbox"], (fs, 4)),
+                "frame_index": b.create_array(
+                    "frame_index", (E, L.max_obs), EXAMPLE_ARRAYS["frame_index"], (es, L.max_obs)
+                ),
+                "d1": b.create_array("d1", (E,), EXAMPLE_ARRAYS["d1"], (es,)),
+                "example_id": b.create_array(
+                    "example_id", (E, L.id_width), EXAMPLE_ARRAYS["example_id"], (es, L.id_width)
+                ),
+                "source": b.create_array(
+                    "source", (E, L.source_width), EXAMPLE_ARRAYS["source"], (es, L.source_width)
+                ),
+            }
 
     def _created(self) -> tuple[Backend, Layout]:
         if self.backend is None or self.layout is None:
@@ -200,57 +201,66 @@ class StoreWriter:
         return self.backend, self.layout
 
     def write_masks(self, start: int, packed: np.ndarray) -> None:
-        self.arrays["masks"][start : start + len(packed)] = packed
+        with uninterrupted():
+            self.arrays["masks"][start : start + len(packed)] = packed
+            self._created()[0].check()
 
     def write_mask_chunk(self, start: int, deflated: bytes) -> None:
         """HDF5 only: store one already deflate-compressed mask chunk starting at frame `start`."""
-        self.arrays["masks"].id.write_direct_chunk((start, 0, 0), deflated)
+        with uninterrupted():
+            self.arrays["masks"].id.write_direct_chunk((start, 0, 0), deflated)
+            self._created()[0].check()
 
     def write_frames(
         self, start: int, z: np.ndarray, depth: np.ndarray, stats: FrameStats
     ) -> None:
-        stop = start + len(z)
-        a = self.arrays
-        a["z"][start:stop] = z
-        a["depth"][start:stop] = depth
-        a["area"][start:stop] = stats.area
-        a["largest_area"][start:stop] = stats.largest_area
-        a["bbox"][start:stop] = stats.bbox
+        with uninterrupted():
+            stop = start + len(z)
+            a = self.arrays
+            a["z"][start:stop] = z
+            a["depth"][start:stop] = depth
+            a["area"][start:stop] = stats.area
+            a["largest_area"][start:stop] = stats.largest_area
+            a["bbox"][start:stop] = stats.bbox
+            self._created()[0].check()
 
     def write_examples(
         self, start: int, frame_index: np.ndarray, d1: np.ndarray, ids: list[str], sources: list[str]
     ) -> None:
-        stop = start + len(d1)
-        _, L = self._created()
-        fi = np.full((len(d1), L.max_obs), -1, np.int64)
-        fi[:, : frame_index.shape[1]] = frame_index
-        a = self.arrays
-        a["frame_index"][start:stop] = fi
-        a["d1"][start:stop] = d1
-        a["example_id"][start:stop] = _fit(encode_strings(ids), L.id_width, "example id")
-        a["source"][start:stop] = _fit(encode_strings(sources), L.source_width, "source")
+        with uninterrupted():
+            stop = start + len(d1)
+            _, L = self._created()
+            fi = np.full((len(d1), L.max_obs), -1, np.int64)
+            fi[:, : frame_index.shape[1]] = frame_index
+            a = self.arrays
+            a["frame_index"][start:stop] = fi
+            a["d1"][start:stop] = d1
+            a["example_id"][start:stop] = _fit(encode_strings(ids), L.id_width, "example id")
+            a["source"][start:stop] = _fit(encode_strings(sources), L.source_width, "source")
+            self._created()[0].check()
 
     def commit(self, attrs: StoreAttrs) -> str:
         """Mark the store complete and move it into place; returns its path."""
-        attrs.complete = True
-        backend, _ = self._created()
-        backend.write_attrs(attrs.to_json())
-        backend.close()
-        if self.local:
-            target, partial = Path(self.path), Path(self.partial)
-            fsync_tree(partial)
-            check_new_store(self.path, self.overwrite)  # again: something may have come meanwhile
-            if target.exists() or target.is_symlink():
-                old = Path(self.path + ".replaced")
-                remove(old)
-                target.rename(old)
-                partial.rename(target)
-                remove(old)
-            else:
-                partial.rename(target)
-            sync_parent(target)
-        self._committed = True
-        return self.path
+        with uninterrupted():
+            attrs.complete = True
+            backend, _ = self._created()
+            backend.write_attrs(attrs.to_json())
+            backend.close()
+            if self.local:
+                target, partial = Path(self.path), Path(self.partial)
+                fsync_tree(partial)
+                check_new_store(self.path, self.overwrite)  # again: something may have come meanwhile
+                if target.exists() or target.is_symlink():
+                    old = Path(self.path + ".replaced")
+                    remove(old)
+                    target.rename(old)
+                    partial.rename(target)
+                    remove(old)
+                else:
+                    partial.rename(target)
+                sync_parent(target)
+            self._committed = True
+            return self.path
 
 
 def _inside(filename: object, folder: str) -> bool:
