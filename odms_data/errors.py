@@ -31,3 +31,11 @@ class OutputExistsError(OdmsError):
 
 class WriteError(OdmsError):
     """An output could not be written (a full disk, no permission); the message names its path."""
+
+
+class Interrupted(KeyboardInterrupt):
+    """A stop asked for by a signal (SIGINT, SIGTERM or SIGHUP), handled as Ctrl-C is."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(f"signal {signum}")
+        self.signum = signum

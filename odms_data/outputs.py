@@ -18,9 +18,36 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from .errors import OutputExistsError, StoreLockedError, WriteError
+from .errors import InputError, Interrupted, OutputExistsError, StoreLockedError, WriteError
 
 DISK_FULL = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})
+_deferring = 0  # depth of `uninterrupted` blocks
+_deferred: int | None = None  # the signal that came during one
+
+
+def stop_requested(signum: int) -> None:
+    """Stop for signal `signum` (the command line's handler calls this): raise Interrupted now, or
+    at the end of the `uninterrupted` block in progress."""
+    global _deferred
+    if _deferring:
+        _deferred = signum
+        return
+    raise Interrupted(signum)
+
+
+@contextmanager
+def uninterrupted() -> Iterator[None]:
+    """A write that a stop signal must not cut in two (zarr finishes a write on its own I/O thread
+    after the main thread is interrupted, which would leave files behind the clean-up)."""
+    global _deferring, _deferred
+    _deferring += 1
+    try:
+        yield
+    finally:
+        _deferring -= 1
+    if not _deferring and _deferred is not None:
+        signum, _deferred = _deferred, None
+        raise Interrupted(signum)
 
 
 def write_error(path: str | os.PathLike, e: OSError) -> WriteError:
@@ -66,8 +93,11 @@ def output_lock(path: str | os.PathLike, noun: str = "file") -> Iterator[None]:
             raise StoreLockedError(
                 f"{path}: another odms-data process (pid {holder}) is writing this {noun}"
             ) from None
-        os.ftruncate(fd, 0)
-        os.write(fd, str(os.getpid()).encode())
+        try:
+            os.ftruncate(fd, 0)
+            os.write(fd, str(os.getpid()).encode())  # for the message of a second writer
+        except OSError:
+            pass  # a full disk: the lock holds without it, and the write itself will say so
         try:
             yield
         finally:
@@ -81,8 +111,11 @@ def output_lock(path: str | os.PathLike, noun: str = "file") -> Iterator[None]:
                 break  # not empty: it holds the output
 
 
-def check_new_file(path: str | os.PathLike, overwrite: bool, option: str = "") -> None:
-    """Refuse an output file path that exists (unless `overwrite`) or that is a folder.
+def check_new_file(
+    path: str | os.PathLike, overwrite: bool, option: str = "", suffixes: tuple[str, ...] = ()
+) -> None:
+    """Refuse an output file path that exists (unless `overwrite`), that is a folder, or whose
+    name does not end with one of `suffixes` (when given: a CSV named x.zarr would pass for a store).
 
     `option` names the command-line option that gave the path, for the message.
     """
@@ -92,6 +125,8 @@ def check_new_file(path: str | os.PathLike, overwrite: bool, option: str = "") -
         raise OutputExistsError(f"{what}: is a folder; give a file name")
     if (p.exists() or p.is_symlink()) and not overwrite:
         raise OutputExistsError(f"{what}: already exists; pass --overwrite to replace it")
+    if suffixes and p.suffix.lower() not in suffixes:
+        raise InputError(f"{what}: name the file *{' or *'.join(suffixes)}")
 
 
 def fsync_tree(path: str | os.PathLike) -> None:

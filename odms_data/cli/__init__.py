@@ -23,7 +23,8 @@ from typing import Any
 import click
 
 from .._version import __version__
-from ..errors import OdmsError
+from ..errors import Interrupted, OdmsError
+from ..outputs import stop_requested
 
 
 def one_line(message: object) -> str:
@@ -58,21 +59,13 @@ COMMANDS = {  # command name -> (module of this package, attribute): imported on
 }
 
 
-class Interrupted(KeyboardInterrupt):
-    """A stop asked for by a signal: SIGINT, SIGTERM or SIGHUP."""
-
-    def __init__(self, signum: int) -> None:
-        super().__init__(signal.Signals(signum).name)
-        self.signum = signum
-
-
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 
 @contextmanager
 def _signals_interrupt() -> Iterator[None]:
-    """Turn the stop signals into `Interrupted`; once one came, later ones are ignored, so the
-    clean-up it starts is not cut short."""
+    """Turn the stop signals into `Interrupted` (outputs.stop_requested); once one came, later ones
+    are ignored, so the clean-up it starts is not cut short."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -80,7 +73,7 @@ def _signals_interrupt() -> Iterator[None]:
     def stop(signum: int, frame: object) -> None:
         for s in STOP_SIGNALS:
             signal.signal(s, signal.SIG_IGN)
-        raise Interrupted(signum)
+        stop_requested(signum)
 
     previous = {s: signal.signal(s, stop) for s in STOP_SIGNALS}
     try:

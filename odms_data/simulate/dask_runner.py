@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import itertools
 import os
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Generator, Iterable
 from typing import Any
 
 from .._version import __version__
@@ -76,7 +76,7 @@ def check_workers(client, address: str, path: str) -> None:
 
 def run_tasks(
     tasks: Iterable[ShardTask], address: str, progress: Callable[[int], None] | None = None
-) -> Iterator[ShardResult]:
+) -> Generator[ShardResult, None, None]:
     """Results of `tasks` run on the cluster at `address`, in task order."""
     first = next(iter(tasks := iter(tasks)), None)
     if first is None:

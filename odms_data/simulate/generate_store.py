@@ -9,8 +9,9 @@ shard size.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Generator, Iterable, Iterator
 from concurrent.futures import Future
+from contextlib import closing
 
 import numpy as np
 
@@ -27,7 +28,9 @@ Progress = Callable[[int], None]
 SHARD_BYTES = 2**28  # the most packed mask bytes one shard task holds
 
 
-def _run_tasks(tasks: Iterable[ShardTask], workers: int, progress: Progress | None) -> Iterator[ShardResult]:
+def _run_tasks(
+    tasks: Iterable[ShardTask], workers: int, progress: Progress | None
+) -> Generator[ShardResult, None, None]:
     """Results in task order, each counted by `progress` as it comes."""
     for r in _run_local(tasks, workers):
         if progress:
@@ -96,17 +99,18 @@ def generate(
 
             results = run_tasks(tasks, scheduler, progress)
         digest = StoreDigest(H, W, count)
-        for r in results:
-            f0 = r.start * n
-            w.write_frames(f0, r.z, r.z, r.stats)
-            frame_index = np.arange(f0, r.stop * n).reshape(-1, n)
-            w.write_examples(
-                r.start, frame_index, r.z[::n].copy(),
-                example_ids(split, count, r.start, r.stop), [SOURCE] * (r.stop - r.start),
-            )
-            for e, chunk in enumerate(r.deflated_chunks):
-                w.write_mask_chunk(f0 + e * n, chunk)
-            digest.update(r.example_digests)
+        with closing(results):  # on an error, the workers stop writing before the store is removed
+            for r in results:
+                f0 = r.start * n
+                w.write_frames(f0, r.z, r.z, r.stats)
+                frame_index = np.arange(f0, r.stop * n).reshape(-1, n)
+                w.write_examples(
+                    r.start, frame_index, r.z[::n].copy(),
+                    example_ids(split, count, r.start, r.stop), [SOURCE] * (r.stop - r.start),
+                )
+                for e, chunk in enumerate(r.deflated_chunks):
+                    w.write_mask_chunk(f0 + e * n, chunk)
+                digest.update(r.example_digests)
         attrs = StoreAttrs(
             split=split, domain="generated", image_size=(H, W),
             counts={"examples": count, "frames": count * n, "labelled": count},
