@@ -171,14 +171,19 @@ def depth_problems(depth: np.ndarray) -> list[str]:
     return [f"depth is not a positive distance (nor NaN) at frame(s) {_first(bad)}"] if len(bad) else []
 
 
-def d1_problems(d1: np.ndarray, name: Name) -> list[str]:
-    """Labels are positive and finite where known (NaN for unlabelled examples)."""
+def d1_problems(d1: np.ndarray, labelled: int, name: Name) -> list[str]:
+    """Labels are positive and finite where known (NaN for unlabelled examples), and `labelled`
+    (counts.labelled) of them are known."""
+    problems = []
     with np.errstate(invalid="ignore"):
         bad = np.nonzero(~np.isnan(d1) & ~(np.isfinite(d1) & (d1 > 0)))[0]
-    if not len(bad):
-        return []
-    return [f"d1 of example {name(int(bad[0]))} is {d1[bad[0]]}, not a positive depth "
-            f"({len(bad)} such example(s))"]
+    if len(bad):
+        problems.append(f"d1 of example {name(int(bad[0]))} is {d1[bad[0]]}, not a positive depth "
+                        f"({len(bad)} such example(s))")
+    known = int((~np.isnan(d1)).sum())
+    if known != labelled:
+        problems.append(f"counts.labelled is {labelled}, but {known} examples have d1")
+    return problems
 
 
 def id_problems(ids: list[str], split: str) -> list[str]:

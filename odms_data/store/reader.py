@@ -135,7 +135,7 @@ class Store:
     @cached_property
     def d1(self) -> np.ndarray:
         d1 = self._read("d1")
-        return self._checked(d1, d1_problems(d1, self._name))
+        return self._checked(d1, d1_problems(d1, self.attrs.counts["labelled"], self._name))
 
     @cached_property
     def n_obs(self) -> np.ndarray:
