@@ -70,10 +70,10 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
     if plot:
         from ..evaluation.error_plots import plot_format
 
-        plot_format(plot)  # before scoring: matplotlib is there and knows the suffix
         check_new_file(plot, overwrite, "--plot")
+        plot_format(plot)  # before scoring: matplotlib is there and knows the suffix
     if entry:
-        check_new_file(entry, overwrite, "--entry")
+        check_new_file(entry, overwrite, "--entry", (".json",))
     stores = find_stores(data_locations(data))
     truths = {split: load_truth(path) for split, path in stores.items()}
     preds = read_predictions(predictions, max_rows=sum(len(t.example_ids) for t in truths.values()))
@@ -124,7 +124,7 @@ def vosde(stores, data, n_obs, output, overwrite):
     """
     from ..evaluation.predictions import write_predictions
 
-    check_new_file(output, overwrite, "-o")
+    check_new_file(output, overwrite, "-o", (".csv",))
     paths = []
     found = None
     for s in stores:

@@ -120,8 +120,8 @@ def show(store, example_id, output, overwrite):
     """
     from ..store.contact_sheet import contact_sheet, image_format, save_image
 
-    image_format(output)
     check_new_file(output, overwrite, "-o")
+    image_format(output)
     with open_store(store) as s:
         sheet = contact_sheet(s.example(example_id))
     save_image(sheet, output, overwrite=overwrite)

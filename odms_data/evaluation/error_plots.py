@@ -29,9 +29,10 @@ def pyplot():
 def plot_format(path: str) -> str:
     """The file format matplotlib writes for `path`'s suffix; InputError when it has none it knows
     (matplotlib would otherwise add `.png` to the name)."""
-    plt = pyplot()
-    known = plt.figure().canvas.get_supported_filetypes()
-    plt.close("all")
+    pyplot()
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    known = FigureCanvasBase.get_supported_filetypes()
     suffix = Path(path).suffix.lower().lstrip(".")
     if suffix not in known:
         what = f"suffix .{suffix} is not an image format matplotlib writes" if suffix else "has no suffix"

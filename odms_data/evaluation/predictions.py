@@ -129,6 +129,10 @@ class _Hashed(io.RawIOBase):
         self.sha.update(memoryview(b)[:n])
         return n
 
+    def close(self) -> None:
+        self.raw.close()
+        super().close()
+
 
 def _open(path: str) -> tuple[io.BufferedReader, _Hashed]:
     try:
