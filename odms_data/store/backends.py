@@ -72,6 +72,25 @@ class Backend:
         pass
 
 
+SETTLE_TIMEOUT_S = 60
+
+
+def settle_zarr_io() -> None:
+    """Wait for zarr's writes still in flight on its I/O thread. When one write of a call fails (a
+    full disk) or the caller is interrupted, the call raises at once while its other writes go on,
+    and would recreate files in a store being removed."""
+    import asyncio
+
+    from zarr.core.sync import sync
+
+    async def others() -> None:
+        pending = [t for t in asyncio.all_tasks() if t is not asyncio.current_task()]
+        if pending:
+            await asyncio.wait(pending, timeout=SETTLE_TIMEOUT_S)
+
+    sync(others())
+
+
 class ZarrBackend(Backend):
     kind = "zarr"
 
@@ -110,6 +129,9 @@ class ZarrBackend(Backend):
 
     def write_attrs(self, attrs: dict[str, Any]) -> None:
         self.group.attrs.update({"odms": attrs})
+
+    def close(self) -> None:
+        settle_zarr_io()
 
     def create_array(self, name, shape, dtype, chunks, shards=None):
         from zarr.codecs import ZstdCodec

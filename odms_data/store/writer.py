@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, StoreError, StoreExistsError
-from ..outputs import DISK_FULL, fsync_tree, output_lock, remove, sync_parent, uninterrupted, write_error
+from ..interrupts import uninterrupted
+from ..outputs import DISK_FULL, fsync_tree, output_lock, remove, sync_parent, write_error
 from .backends import (
     GZIP_LEVEL,
     HDF5_MAGIC,
@@ -29,6 +30,7 @@ from .backends import (
     detect_format,
     is_url,
     open_backend,
+    settle_zarr_io,
     storage_options,
 )
 from .format import ATTRS_KEY, EXAMPLE_ARRAYS, FRAME_ARRAYS, StoreAttrs, encode_strings
@@ -310,8 +312,12 @@ def write_shard_masks(
 
         masks = zarr.open_array(store=path, path="masks", mode="r+", storage_options=storage_options(path))
         key = masks.metadata.encode_chunk_key((start // masks.shards[0], 0, 0))  # type: ignore[index]  # masks is sharded
-        sync(masks.store.delete(f"{masks.path}/{key}"))
-        masks.with_config({"write_empty_chunks": True})[start : start + len(packed)] = packed
+        try:
+            sync(masks.store.delete(f"{masks.path}/{key}"))
+            masks.with_config({"write_empty_chunks": True})[start : start + len(packed)] = packed
+        except BaseException:
+            settle_zarr_io()  # before the store that holds this shard is removed
+            raise
         return []
     chunks = []
     for c in range(0, len(packed), frames_per_chunk):
