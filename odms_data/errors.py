@@ -17,7 +17,11 @@ class StoreExistsError(StoreError):
     """The output store exists and `overwrite` was not asked for."""
 
 
-class StoreLockedError(StoreError):
+class OutputLockedError(OdmsError):
+    """Another process holds the write lock of an output."""
+
+
+class StoreLockedError(StoreError, OutputLockedError):
     """Another process holds the write lock of the store."""
 
 

@@ -18,38 +18,9 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from .errors import InputError, Interrupted, OutputExistsError, StoreLockedError, WriteError
+from .errors import InputError, OutputExistsError, OutputLockedError, StoreLockedError, WriteError
 
 DISK_FULL = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})
-_deferring = 0  # depth of `uninterrupted` blocks
-_deferred: int | None = None  # the signal that came during one
-
-
-def stop_requested(signum: int) -> None:
-    """Stop for signal `signum` (the command line's handler calls this): raise Interrupted now, or
-    at the end of the `uninterrupted` block in progress."""
-    global _deferred
-    if _deferring:
-        _deferred = signum
-        return
-    raise Interrupted(signum)
-
-
-@contextmanager
-def uninterrupted() -> Iterator[None]:
-    """A write that a stop signal must not cut in two (zarr finishes a write on its own I/O thread
-    after the main thread is interrupted, which would leave files behind the clean-up)."""
-    global _deferring, _deferred
-    _deferring += 1
-    try:
-        yield
-    finally:
-        _deferring -= 1
-    if not _deferring and _deferred is not None:
-        signum, _deferred = _deferred, None
-        raise Interrupted(signum)
-
-
 def write_error(path: str | os.PathLike, e: OSError) -> WriteError:
     """One line naming the output `path` for an OSError met while writing it."""
     if e.errno in DISK_FULL:
@@ -90,9 +61,8 @@ def output_lock(path: str | os.PathLike, noun: str = "file") -> Iterator[None]:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
             holder = os.read(fd, 64).decode(errors="replace").strip() or "unknown"
-            raise StoreLockedError(
-                f"{path}: another odms-data process (pid {holder}) is writing this {noun}"
-            ) from None
+            locked = StoreLockedError if noun == "store" else OutputLockedError
+            raise locked(f"{path}: another odms-data process (pid {holder}) is writing this {noun}") from None
         try:
             os.ftruncate(fd, 0)
             os.write(fd, str(os.getpid()).encode())  # for the message of a second writer

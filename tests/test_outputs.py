@@ -10,7 +10,8 @@ import pytest
 
 from odms_data.errors import InputError, Interrupted, OutputExistsError
 from odms_data.evaluation.predictions import read_predictions
-from odms_data.outputs import atomic_file, check_new_file, stop_requested, uninterrupted, write_text
+from odms_data.interrupts import stop_requested, uninterrupted
+from odms_data.outputs import atomic_file, check_new_file, write_text
 
 
 def test_a_failed_write_keeps_the_old_file_and_leaves_nothing(tmp_path):

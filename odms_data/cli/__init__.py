@@ -24,7 +24,7 @@ import click
 
 from .._version import __version__
 from ..errors import Interrupted, OdmsError
-from ..outputs import stop_requested
+from ..interrupts import stop_requested
 
 
 def one_line(message: object) -> str:
@@ -64,7 +64,7 @@ STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 @contextmanager
 def _signals_interrupt() -> Iterator[None]:
-    """Turn the stop signals into `Interrupted` (outputs.stop_requested); once one came, later ones
+    """Turn the stop signals into `Interrupted` (interrupts.stop_requested); once one came, later ones
     are ignored, so the clean-up it starts is not cut short."""
     if threading.current_thread() is not threading.main_thread():
         yield

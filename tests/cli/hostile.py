@@ -569,7 +569,7 @@ for args, say in [
 case(C, "SIGTERM during generate (2 workers)", ["generate", "-n", "3000", "-o", "t.zarr", "--workers", "2"],
      expect=143, process=True, stop=(signal.SIGTERM, "t.zarr.partial/masks/c", 0.5))
 case(C, "SIGHUP during convert", ["convert", "big.zarr", "t.h5"], expect=129, process=True,
-     setup=lambda cwd: make_valid(cwd / "big.zarr", count=1000), stop=(signal.SIGHUP, "t.h5.partial", 0.0))
+     setup=lambda cwd: make_valid(cwd / "big.zarr", count=1000), stop=(signal.SIGHUP, "t.h5.lock", 0.0))
 case(C, "SIGTERM during import", [*REC, "-o", "t.zarr"], setup=lambda cwd: _recording(cwd, n=1000),
      expect=143, process=True, stop=(signal.SIGTERM, "t.zarr.partial/masks", 0.0))
 case(C, "score --json with absurd predictions", [*SCORE[:1], "q.csv", *SCORE[2:], "--json"], STORE_NEEDS,
