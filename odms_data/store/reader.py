@@ -202,9 +202,7 @@ class Store:
         i = self.index(key) if isinstance(key, str) else int(key)
         if not 0 <= i < self.n_examples:
             raise InputError(f"{self.path}: example row {i} is out of range 0..{self.n_examples - 1}")
-        frames = self.frames_of(i)
-        if len(frames) and (frames.min() < 0 or frames.max() >= self.n_frames):
-            raise StoreError(f"{self.path}: example row {i} refers to frames outside 0..{self.n_frames - 1}")
+        frames = self.frames_of(i)  # rows inside the store: frame_index is checked when read
         return Example(
             example_id=self.example_ids[i],
             source=self.sources[i],

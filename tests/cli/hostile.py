@@ -179,7 +179,7 @@ RLIMIT_BYTES = 64  # the file size limit standing in for a small disk where no t
 
 
 def run_process(case: Case, args: list[str], cwd: Path, code: Path | None) -> Result:
-    """The command in its own process (`code`'s odms_data), its peak memory from wait4."""
+    """The command in its own process (`code`'s odms_data), with its peak memory."""
     import psutil
 
     env = dict(os.environ)
@@ -212,9 +212,22 @@ def run_process(case: Case, args: list[str], cwd: Path, code: Path | None) -> Re
         th.start()
     timer = threading.Timer(case.timeout, proc.kill)
     timer.start()
+    child = psutil.Process(proc.pid)
+    peak = [0]
+
+    def sample() -> None:  # the process tree's resident memory (wait4's counts the fork's copy of ours)
+        while child.is_running() and child.status() != psutil.STATUS_ZOMBIE:
+            try:
+                tree = [child, *child.children(recursive=True)]
+                peak[0] = max(peak[0], sum(p.memory_info().rss for p in tree))
+            except psutil.Error:
+                pass
+            time.sleep(0.02)
+
+    sampler = threading.Thread(target=sample, daemon=True)
+    sampler.start()
     if case.stop:
         signum, trigger, delay = case.stop
-        child = psutil.Process(proc.pid)
         deadline = time.monotonic() + 60
         while (not (cwd / trigger).exists() and child.status() != psutil.STATUS_ZOMBIE
                and time.monotonic() < deadline):
@@ -222,8 +235,8 @@ def run_process(case: Case, args: list[str], cwd: Path, code: Path | None) -> Re
         time.sleep(delay)
         if child.status() != psutil.STATUS_ZOMBIE:
             proc.send_signal(signum)
-    _, status, usage = os.wait4(proc.pid, 0)
-    proc.returncode = os.waitstatus_to_exitcode(status)
+    sampler.join()
+    proc.wait()
     killed = not timer.is_alive()
     timer.cancel()
     for th in readers:
@@ -231,7 +244,7 @@ def run_process(case: Case, args: list[str], cwd: Path, code: Path | None) -> Re
     err = streams["err"].decode(errors="replace")
     err += f"\n(killed after {case.timeout:.0f} s)" if killed else ""
     result = Result(proc.returncode, streams["out"].decode(errors="replace"), err,
-                    time.perf_counter() - t, usage.ru_maxrss / 1024)
+                    time.perf_counter() - t, peak[0] / 2**20)
     if listing.exists():
         result.leftovers = listing.read_text().split()
         listing.unlink()
