@@ -31,6 +31,7 @@ COLUMNS = ("split", "example_id", "d1")
 HEADER = ",".join(COLUMNS)
 SHOW = 3  # offending rows or ids named in a message
 MAX_LINE = 4096  # characters in a line: a longer one is not a predictions row
+BLOCK = 1 << 20  # characters read at a time
 OTHER_DELIMITERS = {";": "';'", "\t": "a tab", "|": "'|'"}
 BOMS = {
     codecs.BOM_UTF32_LE: "UTF-32", codecs.BOM_UTF32_BE: "UTF-32",
@@ -147,34 +148,70 @@ def _open(path: str) -> tuple[io.BufferedReader, _Hashed]:
     return io.BufferedReader(hashed), hashed
 
 
-def _text_lines(path: str, binary: io.BufferedReader) -> Iterator[tuple[int, str]]:
-    """(line number, line) of the file as UTF-8 text, checked as they come: the encoding, NUL
-    bytes and the line length."""
+def _blocks(path: str, binary: io.BufferedReader) -> Iterator[tuple[int, list[str]]]:
+    """(number of the first line, whole lines without their line ends) of the file as UTF-8 text,
+    a block at a time, each checked as it comes: the encoding, NUL bytes and the line length."""
     head = binary.peek(4)[:4]
     for bom, name in BOMS.items():
         if head.startswith(bom):
             raise InputError(f"{path}: the file is encoded as {name}; save it as plain UTF-8 (no BOM)")
     text = io.TextIOWrapper(binary, encoding="utf-8", errors="surrogateescape", newline=None)
-    number = 0
-    while line := text.readline(MAX_LINE + 1):
-        number += 1
-        if "\0" in line:
+    number, tail = 1, ""
+    while True:
+        chunk = text.read(BLOCK)
+        if chunk:
+            lines = (tail + chunk).split("\n")
+            tail = lines.pop()
+        else:  # the end: a last line without its line end (a final line end makes no row)
+            lines, tail = [tail] if tail else [], ""
+        block = "\n".join(lines)
+        if "\0" in block or "\0" in tail:
             raise InputError(f"{path}: the file holds NUL bytes (UTF-16 or binary?); save it as plain UTF-8")
-        bad = _NOT_UTF8.search(line)
+        bad = None if block.isascii() else _NOT_UTF8.search(block)
         if bad:
-            byte = ord(bad.group()) - 0xDC00
-            raise InputError(
-                f"{path}: line {number} is not valid UTF-8 (byte 0x{byte:02x}); save the file as UTF-8"
-            )
-        if len(line) > MAX_LINE:
-            raise InputError(f"{path}: line {number} is longer than {MAX_LINE} characters; a predictions "
+            raise InputError(f"{path}: line {number + block.count(chr(10), 0, bad.start())} is not valid "
+                             f"UTF-8 (byte 0x{ord(bad.group()) - 0xDC00:02x}); save the file as UTF-8")
+        longest = max(map(len, lines), default=0)
+        if longest > MAX_LINE or len(tail) > MAX_LINE:
+            at = number + next((i for i, x in enumerate(lines) if len(x) > MAX_LINE), len(lines))
+            raise InputError(f"{path}: line {at} is longer than {MAX_LINE} characters; a predictions "
                              f"file has short rows '{HEADER}'")
-        yield number, line
+        if lines:
+            yield number, lines
+        number += len(lines)
+        if not chunk:
+            return
 
 
 def _field_count_error(path: str, line: int, fields: int) -> InputError:
     hint = " (a decimal comma? d1 must use '.')" if fields == 4 else ""
     return InputError(f"{path}: line {line} has {fields} fields, expected 3{hint}")
+
+
+def _parse(path: str, first: int, lines: list[str]) -> list[list[str]]:
+    """The CSV rows of `lines`, one per line (a blank line: no fields); InputError for a row that
+    is not CSV, spans lines (an unclosed quote) or has another number of fields than 3."""
+    reader = csv.reader(lines, skipinitialspace=True)
+    try:
+        rows = list(reader)
+    except csv.Error:
+        rows = []
+    if len(rows) != len(lines) or reader.line_num != len(lines):  # find the culprit, row by row
+        reader = csv.reader(iter(lines), skipinitialspace=True)
+        for i in range(len(lines)):
+            try:
+                next(reader)
+            except csv.Error as e:
+                raise InputError(f"{path}: line {first + i} is not a readable CSV row ({e})") from None
+            if reader.line_num > i + 1:
+                raise InputError(f"{path}: a quoted field runs from line {first + i} to line "
+                                 f"{first + reader.line_num - 1}; is a quote not closed?")
+    for i, fields in enumerate(rows):
+        if len(fields) != 3 and any(f.strip() for f in fields):
+            raise _field_count_error(path, first + i, len(fields))
+    if any(" " in line or "\t" in line for line in lines):  # spaces around a field are ignored
+        rows = [[f.strip() for f in fields] for fields in rows]
+    return rows
 
 
 def read_predictions(path: str | Path, max_rows: int | None = None) -> Predictions:
@@ -185,55 +222,30 @@ def read_predictions(path: str | Path, max_rows: int | None = None) -> Predictio
     """
     path = str(path)
     binary, hashed = _open(path)
+    rows: list[list[str]] = []
+    header = None
     with binary:
-        lines = _text_lines(path, binary)
-        header = None
-        for number, line in lines:
-            if line.strip():
-                if number > 1:
+        for first, lines in _blocks(path, binary):
+            if header is None:
+                k = next((i for i, line in enumerate(lines) if line.strip()), None)
+                if k is None:
+                    continue
+                if first + k > 1:
                     raise InputError(f"{path}: line 1 is blank; the first line must be the header '{HEADER}'")
-                header = line
-                break
-        if header is None:
-            raise InputError(
-                f"{path}: the file is empty; it needs the header '{HEADER}' and one row per example"
-            )
-        _check_header(path, header)
-        starts: list[int] = []
-        rows: list[list[str]] = []
-        at = 1  # the line before the next row
-
-        def source() -> Iterator[str]:
-            nonlocal at
-            for number, line in lines:
-                at = number
-                yield line
-
-        reader = csv.reader(source(), skipinitialspace=True)
-        while True:
-            first = at + 1
-            try:
-                fields = next(reader)
-            except StopIteration:
-                break
-            except csv.Error as e:
-                raise InputError(f"{path}: line {first} is not a readable CSV row ({e})") from None
-            if at > first:
-                raise InputError(f"{path}: a quoted field runs from line {first} to line {at}; "
-                                 "is a quote not closed?")
-            fields = [f.strip() for f in fields]
-            if fields and any(fields) and len(fields) != 3:
-                raise _field_count_error(path, first, len(fields))
-            if max_rows is not None and len(rows) == max_rows:
+                header = lines[k]
+                _check_header(path, header)
+                first, lines = first + k + 1, lines[k + 1 :]
+            rows += _parse(path, first, lines)
+            if max_rows is not None and len(rows) > max_rows:
                 raise InputError(
                     f"{path}: has more than {max_rows} rows, but the ground-truth stores hold {max_rows} "
                     "examples in all (one row each); are they the right stores?"
                 )
-            starts.append(first)
-            rows.append(fields if fields else ["", "", ""])
-    frame = pd.DataFrame(rows if rows else None, columns=list(COLUMNS), dtype=object)
-    frame["line"] = np.array(starts, np.int64)
-    # a final newline makes no row; blank lines anywhere else are errors
+    if header is None:
+        raise InputError(f"{path}: the file is empty; it needs the header '{HEADER}' and one row per example")
+    rows = [r if len(r) == 3 else ["", "", ""] for r in rows]  # the others are blank (see _parse)
+    frame = pd.DataFrame(rows, columns=list(COLUMNS), dtype=object)
+    frame["line"] = np.arange(2, len(frame) + 2)
     blank = (frame[list(COLUMNS)] == "").all(axis=1).to_numpy()
     if blank.any():
         raise InputError(f"{path}: blank lines in the file, {_lines(frame, blank)}")
