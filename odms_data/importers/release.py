@@ -34,6 +34,7 @@ from .plan import Plan
 
 # (frames per mask chunk, frames per shard): robot one folder per chunk, normal/perturb one example.
 CHUNKING = {"robot": (30, 480), "driving": (32, 1024), "normal": (10, 2000), "perturb": (10, 2000)}
+MODIFIED = "-modified"  # the suffix of a split whose content differs from its manifest
 RELEASE = "official ODMS release (Griffin & Corso, ECCV 2020; griffbr/ODMS data/)"
 
 
@@ -166,6 +167,7 @@ def make_plan(split: str, folders: list[Folder], skipped: list[dict[str, str]]) 
         masks=masks, z=np.concatenate(z) if z else np.zeros(0), depth=np.concatenate(depth) if depth
         else np.zeros(0), frame_index=frame_index, d1=np.array(d1, np.float64), ids=ids,
         sources=sources, frames_per_chunk=fpc, frames_per_shard=fps, oddities=list(skipped),
+        id_room=len(MODIFIED),
     )
 
 
@@ -191,7 +193,8 @@ def import_release(
 
     Every folder of every requested split is scanned before anything is written. With
     `skip_bad`, bad folders are left out and recorded as oddities of kind "skipped"; such a store
-    (or, with `verify=False`, any store differing from its manifest) is named `<split>-modified`.
+    (or, with `verify=False`, any store differing from its manifest) is named `<split>-modified`,
+    and so are its ids (`<split>-modified/...`).
     Otherwise a store that differs from its manifest raises DigestMismatchError and is not
     written. `progress(split, frames_done, frames_total)` follows the decoding.
     """
@@ -251,5 +254,5 @@ def _verify(attrs: StoreAttrs, name: str, path: Path, strict: bool) -> None:
     except DigestMismatchError as e:
         if strict:
             raise DigestMismatchError(f"{e}; nothing was written") from None
-        attrs.split = f"{name}-modified"
+        attrs.split = f"{name}{MODIFIED}"
         attrs.source = f"{attrs.source}; modified, differs from splits/{name}.json"
