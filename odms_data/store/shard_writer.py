@@ -1,21 +1,24 @@
-"""Writing a whole shard of `masks` at once: chunks compressed as they are made, one store write.
+"""Writing a whole shard of `masks` at once: chunks compressed as they are made, one write.
 
 zarr spends about twice the compression's own time on a full shard write (a fresh fill-value
 array and a copy per inner chunk, and an asyncio task per chunk). A shard task knows its chunks
-one by one, so it compresses each as soon as it is made and writes the shard's bytes in one
-store call: the layout StoreWriter makes (sharding_indexed along frames, inner codecs bytes +
-zstd, index bytes + crc32c at the end), byte for byte what zarr writes (tests/store check it).
-HDF5 chunks are deflated the same way and handed to the single writer.
+one by one, so it compresses each as soon as it is made and writes the shard's bytes at once:
+one file write for a local store (shard_layout.py; zarr is not even imported), one store call
+for a URL. The bytes are what zarr writes (tests/store check it). HDF5 chunks are deflated the
+same way and handed to the single writer.
 """
 
 from __future__ import annotations
 
+import os
+import threading
 import zlib
 from functools import cache
 
 import numpy as np
 
 from .backends import GZIP_LEVEL, ZSTD_LEVEL, storage_options
+from .shard_layout import ShardLayout
 
 MISSING = 2**64 - 1  # offset and length of an absent inner chunk
 
@@ -52,6 +55,14 @@ class ShardChunks:
         deflated chunks, for the single writer's `write_mask_chunk`."""
         if self.fmt != "zarr":
             return self.chunks
+        layout = ShardLayout.of(path)
+        if layout is not None:  # a local store: no zarr (its import is a third of a worker's start-up)
+            target = layout.shard_path(start // layout.shard)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            partial = target.with_name(f"{target.name}.{os.getpid()}.{threading.get_ident()}.partial")
+            partial.write_bytes(shard_bytes(self.chunks, layout.per_shard))
+            partial.replace(target)  # whole or not at all, as zarr's own local writes
+            return []
         import zarr
         from zarr.core.buffer import default_buffer_prototype
         from zarr.core.sync import sync
