@@ -4,8 +4,8 @@ zarr spends about twice the compression's own time on a full shard write (a fres
 array and a copy per inner chunk, and an asyncio task per chunk). A shard task knows its chunks
 one by one, so it compresses each as soon as it is made and writes the shard's bytes at once:
 one file write for a local store (shard_layout.py; zarr is not even imported), one store call
-for a URL. The bytes are what zarr writes (tests/store check it). HDF5 chunks are deflated the
-same way and handed to the single writer.
+for a URL. zarr reads them as it reads its own (tests/store check it). HDF5 chunks are deflated
+the same way and handed to the single writer.
 """
 
 from __future__ import annotations
@@ -13,7 +13,6 @@ from __future__ import annotations
 import os
 import threading
 import zlib
-from functools import cache
 
 import numpy as np
 
@@ -23,19 +22,16 @@ from .shard_layout import ShardLayout
 MISSING = 2**64 - 1  # offset and length of an absent inner chunk
 
 
-@cache
-def _zstd():
-    from numcodecs import Zstd
-
-    return Zstd(level=ZSTD_LEVEL, checksum=True)  # zarr's ZstdCodec calls the same numcodecs codec
-
-
 class ShardChunks:
     """The compressed mask chunks of one shard, added in order (`fmt`: 'zarr' or 'hdf5')."""
 
     def __init__(self, fmt: str, frames_per_chunk: int) -> None:
         self.fmt, self.frames_per_chunk = fmt, frames_per_chunk
         self.chunks: list[bytes] = []
+        if fmt == "zarr":  # one zstd context for all chunks: a fresh one per chunk (numcodecs, so
+            import zstandard  # zarr) allocates a megabyte each time, page faults included
+
+            self._zstd = zstandard.ZstdCompressor(level=ZSTD_LEVEL, write_checksum=True)
 
     def add(self, frames: np.ndarray) -> None:
         """Compress the next chunk: (k, H, ceil(W/8)) packed frames, zero-padded to full length."""
@@ -45,7 +41,7 @@ class ShardChunks:
             frames = padded
         data = np.ascontiguousarray(frames, np.uint8)
         if self.fmt == "zarr":
-            self.chunks.append(_zstd().encode(data))
+            self.chunks.append(self._zstd.compress(data.data))
         else:
             self.chunks.append(zlib.compress(data.data, GZIP_LEVEL))
 
