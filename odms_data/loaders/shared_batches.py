@@ -195,7 +195,8 @@ class SharedBatch:
 
 
 class WorkerBlocks:
-    """A DataLoader worker's blocks: `arena()` for the next batch, `send(arena, batch)` to hand it over."""
+    """A DataLoader worker's blocks: `arena()` for the next batch, `send(arena, batch)` to hand it
+    over. One per worker process (`worker_blocks`), so persistent workers reuse them every epoch."""
 
     def __init__(self) -> None:
         self.blocks: list[SharedMemory] = []
@@ -242,6 +243,16 @@ class _Mapping:
         with contextlib.suppress(BufferError):
             self.buf.release()
             self._mmap.close()
+
+
+_WORKER_BLOCKS: list[WorkerBlocks] = []  # this DataLoader worker's, made on first use
+
+
+def worker_blocks() -> WorkerBlocks:
+    """This DataLoader worker process's blocks."""
+    if not _WORKER_BLOCKS:
+        _WORKER_BLOCKS.append(WorkerBlocks())
+    return _WORKER_BLOCKS[0]
 
 
 _RECEIVED: dict[str, _Mapping] = {}  # main process: workers' blocks mapped here, by name

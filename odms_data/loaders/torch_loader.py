@@ -22,7 +22,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..simulate.params import GeneratorParams
-from .shared_batches import Layout, WorkerBlocks, received_arrays
+from .shared_batches import Layout, received_arrays, worker_blocks
 from .sources import STANDARD, GeneratedExamples, StoreExamples, stream_indices
 from .transforms import PAPER_TRANSFORM, Transform
 
@@ -91,7 +91,7 @@ class StreamDataset(IterableDataset):
     def __iter__(self):
         info = get_worker_info()
         worker, workers = (info.id, info.num_workers) if info else (0, 1)
-        blocks = WorkerBlocks() if info else None
+        blocks = worker_blocks() if info else None
         for b in range(worker, self.batches_per_epoch, workers):
             indices = stream_indices(b, self.batch_size, self.batches_per_epoch, self.epoch)
             if blocks is None:
