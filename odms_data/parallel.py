@@ -28,6 +28,13 @@ WORKER_START_S = 0.6  # a spawned worker's start-up (interpreter and imports), m
 WORK_PER_WORKER_S = 4 * WORKER_START_S  # the least work a worker is started for
 
 
+def cores() -> int:
+    """The cores this process may run on."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
 def workers_for(work_s: float, most: int) -> int:
     """How many worker processes (at most `most`) to start for about `work_s` CPU-seconds of work:
     one per WORK_PER_WORKER_S, so a worker's start-up is at most a quarter of its work. 1 means

@@ -15,7 +15,7 @@ from concurrent.futures import Future
 import numpy as np
 
 from ..errors import InputError
-from ..parallel import ordered_map, spawn_pool, workers_for
+from ..parallel import cores, ordered_map, spawn_pool, workers_for
 from ..store.digest import StoreDigest
 from ..store.format import StoreAttrs
 from ..store.writer import Layout, StoreWriter
@@ -95,7 +95,7 @@ def generate(
         ]
         if scheduler is None:
             if workers is None:
-                workers = workers_for(work_seconds(count, params), len(os.sched_getaffinity(0)))
+                workers = workers_for(work_seconds(count, params), cores())
             results = _run_tasks(tasks, min(workers, len(tasks)), progress)
         else:
             from .dask_runner import run_tasks
