@@ -22,7 +22,7 @@ LAYERS = {
     "network": 5,
     "cli": 6,
 }
-HEAVY = ("cv2", "pandas", "zarr", "h5py", "jsonschema", "matplotlib", "PIL", "torch", "tensorflow", "jax",
+HEAVY = ("cv2", "pandas", "zarr", "h5py", "jsonschema", "matplotlib", "PIL", "torch", "tensorflow", "jax", "grain",
          "dask")
 
 
