@@ -22,8 +22,8 @@ LAYERS = {
     "network": 5,
     "cli": 6,
 }
-HEAVY = ("cv2", "pandas", "zarr", "h5py", "jsonschema", "matplotlib", "PIL", "torch", "tensorflow", "jax", "grain",
-         "dask")
+HEAVY = ("cv2", "pandas", "zarr", "h5py", "jsonschema", "matplotlib", "PIL", "torch", "tensorflow", "jax",
+         "grain", "dask")
 
 
 def _imports(path: Path, text: str | None = None) -> list[tuple[int, str]]:
