@@ -26,6 +26,7 @@ COMMANDS = {  # command name -> (module of this package, attribute): imported on
     "validate": ("store_commands", "validate"),
     "info": ("store_commands", "info"),
     "convert": ("store_commands", "convert"),
+    "export": ("export_command", "export"),
     "show": ("store_commands", "show"),
     "score": ("score_commands", "score"),
     "baseline": ("score_commands", "baseline"),
