@@ -96,7 +96,7 @@ def test_existing_output_and_unknown_example(tmp_path):
 
 
 def test_help_of_every_command_has_an_example():
-    for cmd in ("generate", "validate", "info", "convert", "show"):
+    for cmd in ("generate", "validate", "info", "convert", "show", "export"):
         r = odms(cmd, "--help")
         assert r.returncode == 0 and "Example" in r.stdout and "odms-data " + cmd in r.stdout
 
