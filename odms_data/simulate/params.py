@@ -25,8 +25,8 @@ class GeneratorParams:
     bezier_radius: tuple[float, ...] = (0.01, 0.05, 0.2, 0.5)  # r_B
     bezier_rotation: tuple[float, ...] = (0.01, 0.05, 0.2)  # rho_B
     perturb_std: float = 0.0  # sigma of eq. 20; 0 disables perturbation
-    min_spacing: float = 0.7  # neighbouring contour points >= min_spacing / n_p * s_p apart ...
-    spacing_tries: int = 200  # ... redrawn up to this many times (the authors' released generator)
+    min_spacing: float = 0.7  # consecutive contour points |dx + dy| >= min_spacing / n_p * s_p ...
+    spacing_tries: int = 201  # ... in at most this many draws (the authors' released generator)
     curve_samples: int = 32  # points per Bezier segment
 
     def __post_init__(self) -> None:
