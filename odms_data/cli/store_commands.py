@@ -85,7 +85,7 @@ def info(store, as_json):
         f"digest      {a.digest}",
     ]
     if gen:
-        lines.append(f"generator   preset {gen['preset']}, seed {gen['seed']}")
+        lines.append(f"generator   version {a.generator_version}, preset {gen['preset']}, seed {gen['seed']}")
     if a.source:
         lines.append(f"source      {a.source}")
     if a.oddities:

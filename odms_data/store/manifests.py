@@ -23,6 +23,11 @@ class SplitManifest:
     generator: dict[str, Any] | None = None  # preset, seed, params overrides (generated)
     source: str | None = None  # what it is imported from (imported)
 
+    @property
+    def generator_version(self) -> int | None:
+        """The generator version whose content the digest is (generated splits)."""
+        return None if self.generator is None else self.generator.get("version", 1)
+
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> SplitManifest:
         return cls(**d)

@@ -12,7 +12,7 @@ from ..errors import InputError, OdmsError
 from .backends import open_backend
 from .digest import recompute_digest
 from .format import EXAMPLE_ARRAYS, FRAME_ARRAYS, Z_ODDITY, attribute_problems, layout_problems
-from .manifests import load_manifest, split_names
+from .manifests import SplitManifest, load_manifest, split_names
 from .masks import mask_stats, packed_width, unpack
 from .reader import Store, open_store
 
@@ -151,7 +151,15 @@ def _check_masks(store: Store, report: Report, progress: Callable[[int], None] |
         if manifest.digest != digest:
             report.problems.append(
                 f"content digest {digest} differs from splits/{manifest.name}.json ({manifest.digest})"
+                + _version_hint(store.attrs.generator_version, manifest)
             )
+
+
+def _version_hint(version: int | None, manifest: SplitManifest) -> str:
+    if version is None or version == manifest.generator_version:
+        return ""
+    return (f": the store was made by generator version {version}, the split is version "
+            f"{manifest.generator_version}'s (odms-data generate --split {manifest.name})")
 
 
 def _first(values, k: int = 5) -> str:
