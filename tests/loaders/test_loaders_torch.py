@@ -89,3 +89,14 @@ def test_stream_workers_hand_batches_over_in_reused_blocks_without_copies():
             seen.update(inside)
             del batch
     assert 2 <= len(seen) <= 8  # per worker: prefetch (2), the one being made, the one held here
+
+
+def test_stream_dataset_epochs_reach_persistent_workers():
+    """DataLoader hands persistent workers the dataset once; set_epoch must still reach them."""
+    ds = StreamDataset(4, 3, params=GeneratorParams(n_obs=3), seed=3)
+    loader = two_workers(ds, batch_size=None, persistent_workers=True)
+    seen = []
+    for epoch in range(3):
+        ds.set_epoch(epoch)
+        seen.append(_indices(loader))
+    assert seen == [list(range(12 * e, 12 * (e + 1))) for e in range(3)]
