@@ -3,11 +3,13 @@ and with 1 and 2 worker processes, and a store read through each loader.
 
     python benchmarks/stream.py [--store sim-val.zarr] [--examples 4096] [--batch-size 256]
 
-"112x112" streams masks equal to a store's shrunk to 112x112 (the default); "direct" draws them
-straight at 112x112 (GeneratedExamples(direct=True)). The baseline, measured in the same run, is
+"112x112" streams masks equal to a store's shrunk to 112x112 (the default, uint8); "coverage" the
+same masks as float32 covered fractions (Transform(coverage=True)); "direct" draws them straight
+at 112x112 (GeneratedExamples(direct=True)). The baseline, measured in the same run, is
 the naive streaming path: draw each mask at 480x640 with render.render_masks and shrink it to
 112x112. Timing starts when the first batch arrives, so worker start-up is left out; the first
-batch is not counted.
+batch is not counted. grain's rows count from the start instead, all batches: in-process, grain
+computes batches ahead in a pool of threads, so they are ready long before they are asked for.
 """
 
 from __future__ import annotations
@@ -37,13 +39,17 @@ def cpu_seconds() -> float:
     return me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
 
 
-def rate(batches: Iterable, batch_size: int) -> tuple[float, float]:
-    """Examples per wall second after the first batch, and per CPU second over the whole run
-    (start-up included): on a shared machine the second says what the cores could do."""
+def rate(batches: Iterable, batch_size: int, from_start: bool = False) -> tuple[float, float]:
+    """Examples per wall second after the first batch (`from_start`: from the start, all batches),
+    and per CPU second over the whole run (start-up included): on a shared machine the second says
+    what the cores could do."""
     c0 = cpu_seconds()
+    t0 = time.perf_counter()
     it = iter(batches)
     next(it)
-    t0, count = time.perf_counter(), 0
+    count = batch_size if from_start else 0
+    if not from_start:
+        t0 = time.perf_counter()
     for _ in it:
         count += batch_size
     wall = time.perf_counter() - t0
@@ -62,6 +68,24 @@ def naive(batch_size: int, n_batches: int):
         yield collate(out)
 
 
+def grain_stream(batch_size: int, n_batches: int, workers: int):
+    import grain
+
+    from odms_data.loaders.grain_loader import stream_dataset
+
+    ds = stream_dataset(batch_size, n_batches, params=PARAMS).to_iter_dataset()
+    return ds.mp_prefetch(grain.MultiprocessingOptions(num_workers=workers))
+
+
+def grain_store(store: str, batch_size: int, workers: int):
+    import grain
+
+    from odms_data.loaders.grain_loader import StoreSource
+
+    ds = grain.MapDataset.source(StoreSource(store)).batch(batch_size).to_iter_dataset()
+    return ds.mp_prefetch(grain.MultiprocessingOptions(num_workers=workers))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--store", help="store to read (default: 2,048 generated examples in a temp dir)")
@@ -71,33 +95,47 @@ def main() -> None:
     print(f"{len(os.sched_getaffinity(0))} CPUs available, batch size {args.batch_size}, n = {PARAMS.n_obs}")
     B = args.batch_size
     nb = max(2, args.examples // B)
-    results: list[tuple[str, float]] = []
-    print(f"{'':<48} {'examples/s':>10} {'vs baseline':>11} {'examples/CPU-s':>15}")
+    results: list[tuple[str, float, float]] = []
+    print(f"{'':<48} {'examples/s':>10} {'vs baseline':>11} {'examples/CPU-s':>15} {'vs baseline':>11}")
 
     def record(name: str, value: tuple[float, float]) -> None:
-        results.append((name, value[0]))
-        print(f"{name:<48} {value[0]:10.0f} {value[0] / results[0][1]:10.1f}x {value[1]:15.0f}", flush=True)
+        results.append((name, *value))
+        _, base, base_cpu = results[0]
+        wall, cpu = value
+        print(f"{name:<48} {wall:10.0f} {wall / base:10.1f}x {cpu:15.0f} {cpu / base_cpu:10.1f}x", flush=True)
 
     record("baseline: 480x640 drawn, shrunk to 112x112", rate(naive(B, max(2, nb // 4)), B))
-    for size, direct, label in (((112, 112), False, "112x112"), ((112, 112), True, "112x112 direct"),
-                                (None, False, "480x640")):
-        t = Transform(size=size)
+    for size, direct, coverage, label in (((112, 112), False, False, "112x112"),
+                                          ((112, 112), False, True, "112x112 coverage"),
+                                          ((112, 112), True, False, "112x112 direct"),
+                                          (None, False, False, "480x640")):
+        t = Transform(size=size, coverage=coverage)
         b = B if size else 16  # a batch of 480x640 masks is 3 MB an example
-        for workers in (0, 1, 2):
+        for workers in (0, 2):
             batches = stream_batches(b, nb * B // b // (1 if size else 4), params=PARAMS, transform=t,
                                      direct=direct, workers=workers)
             record(f"numpy stream {label}, workers={workers}", rate(batches, b))
     has_torch = importlib.util.find_spec("torch") is not None
     has_tf = importlib.util.find_spec("tensorflow") is not None
+    has_grain = importlib.util.find_spec("grain") is not None
+    if has_grain:
+        for workers in (0, 2):
+            record(f"grain stream 112x112, workers={workers}", rate(grain_stream(B, nb, workers), B, True))
     if has_torch:
         from torch.utils.data import DataLoader
 
         from odms_data.loaders.torch_loader import StoreDataset, StreamDataset
 
-        for workers in (1, 2):
-            ds = StreamDataset(B, nb, params=PARAMS)
-            record(f"torch stream 112x112, workers={workers}",
-                   rate(DataLoader(ds, batch_size=None, num_workers=workers), B))
+        for coverage in (False, True):
+            for workers in (2,):
+                ds = StreamDataset(B, nb, params=PARAMS, transform=Transform(coverage=coverage))
+                record(f"torch stream 112x112{' coverage' if coverage else ''}, workers={workers}",
+                       rate(DataLoader(ds, batch_size=None, num_workers=workers), B))
+    if has_tf:
+        from odms_data.loaders.tf_loader import from_generator
+
+        record("tf stream 112x112 coverage, workers=2",
+               rate(from_generator(B, nb, params=PARAMS, transform=Transform(coverage=True), workers=2), B))
 
     with tempfile.TemporaryDirectory() as tmp:
         store = args.store
@@ -111,6 +149,8 @@ def main() -> None:
             for workers in (0, 2):
                 record(f"torch store -> 112x112, workers={workers}",
                        rate(DataLoader(StoreDataset(store), batch_size=B, num_workers=workers), B))
+        if has_grain:
+            record("grain store -> 112x112, workers=2", rate(grain_store(store, B, 2), B, True))
         if has_tf:
             from odms_data.loaders.tf_loader import from_store
 

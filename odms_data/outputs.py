@@ -14,7 +14,7 @@ import errno
 import fcntl
 import os
 import shutil
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -154,3 +154,44 @@ def write_bytes(path: str | os.PathLike, data: bytes, *, overwrite: bool = False
 def write_text(path: str | os.PathLike, text: str, *, overwrite: bool = False, option: str = "") -> None:
     """Write `text` as UTF-8 to `path` atomically (see `atomic_file`)."""
     write_bytes(path, text.encode("utf-8"), overwrite=overwrite, option=option)
+
+
+@contextmanager
+def atomic_folder(
+    path: str | os.PathLike, *, overwrite: bool = False, foreign: Callable[[Path], str | None]
+) -> Iterator[Path]:
+    """`atomic_file` for an output that is a folder: yields the empty folder `<path>.partial`,
+    renamed onto `path` (replacing what was there) when the block ends normally.
+
+    An existing `path` is refused unless `overwrite`, and even then when `foreign(path)` says what
+    makes it something odms-data did not write (None: it may be replaced).
+    """
+    target = Path(path)
+    with output_lock(path):
+        if target.exists() or target.is_symlink():
+            if not overwrite:
+                raise OutputExistsError(f"{path}: already exists; pass --overwrite to replace it")
+            what = "is a symbolic link" if target.is_symlink() else foreign(target)
+            if what:
+                raise OutputExistsError(f"{path}: {what}; --overwrite replaces only what odms-data wrote, so "
+                                        "move it away or choose another output")
+        partial = Path(f"{path}.partial")
+        try:
+            remove(partial)
+            partial.mkdir()
+            yield partial
+            fsync_tree(partial)
+            if target.exists():
+                old = Path(f"{path}.replaced")
+                remove(old)
+                target.rename(old)
+                partial.rename(target)
+                remove(old)
+            else:
+                partial.rename(target)
+            sync_parent(target)
+        except BaseException as e:
+            remove(partial)
+            if isinstance(e, OSError) and (e.errno in DISK_FULL or str(e.filename).startswith(str(partial))):
+                raise write_error(path, e) from e
+            raise

@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import json
-import os
 
 import click
 
 from ..errors import InputError
 from ..simulate.params import DEFAULT_EXAMPLES_PER_SHARD, PRESETS, GeneratorParams
 from ..simulate.params import preset as make_preset
+from . import echo_json
 from .progress import progress
 
 
@@ -42,19 +42,20 @@ def _parse_param(values: tuple[str, ...]) -> dict:
               help="Output store (default: <split>.zarr, or .h5 with --format hdf5).")
 @click.option("--format", "fmt", type=click.Choice(["zarr", "hdf5"]), default=None,
               help="Store backend (default: from the output suffix, else zarr).")
-@click.option("--workers", type=click.IntRange(min=1), default=os.cpu_count() or 1,
-              show_default="all cores", help="Worker processes.")
+@click.option("--workers", type=click.IntRange(min=1), default=None,
+              help="Worker processes (default: as many as the work is worth, up to all cores; "
+                   "each takes ~0.6 s to start, so a small run uses one, in-process).")
 @click.option("--examples-per-shard", type=click.IntRange(min=1),
               default=DEFAULT_EXAMPLES_PER_SHARD, show_default=True,
               help="Examples per shard (one task each); does not change the content.")
 @click.option("--overwrite", is_flag=True, help="Replace an existing store.")
+@click.option("--json", "as_json", is_flag=True, help="Print what was written as JSON.")
 @click.option("--scheduler", metavar="ADDRESS", default=None,
               help="Run the shards on the Dask cluster of this scheduler (e.g. tcp://host:8786) "
                    "instead of local --workers; needs the dask extra. The output must be a path "
                    "every worker sees, or a URL such as s3://bucket/train.zarr.")
-@click.pass_context
-def generate(ctx, split_name, count, preset, seed, n_obs, params, store_split, output, fmt, workers,
-             examples_per_shard, overwrite, scheduler):
+def generate(split_name, count, preset, seed, n_obs, params, store_split, output, fmt, workers,
+             examples_per_shard, overwrite, as_json, scheduler):
     """Generate simulated ODMS examples into a store.
 
     \b
@@ -66,7 +67,7 @@ def generate(ctx, split_name, count, preset, seed, n_obs, params, store_split, o
     from ..simulate.generate_store import generate as generate_store
     from ..store.manifests import check_against_manifest, load_manifest
 
-    if scheduler and ctx.get_parameter_source("workers") != click.core.ParameterSource.DEFAULT:
+    if scheduler and workers is not None:
         raise InputError("--workers and --scheduler exclude each other; the cluster has its own workers")
     overrides = _parse_param(params)
     manifest = None
@@ -96,7 +97,13 @@ def generate(ctx, split_name, count, preset, seed, n_obs, params, store_split, o
             workers=workers, examples_per_shard=examples_per_shard, overwrite=overwrite,
             progress=update, scheduler=scheduler,
         )
-    click.echo(f"wrote {output}: {count} examples, digest {attrs.digest}")
     if manifest is not None:
         check_against_manifest(attrs, manifest, output)
+    if as_json:
+        echo_json({"output": output, "split": store_split, "examples": count, "preset": preset,
+                               "seed": seed or 0, "digest": attrs.digest,
+                               "manifest": f"splits/{split_name}.json" if manifest else None})
+        return
+    click.echo(f"wrote {output}: {count} examples, digest {attrs.digest}")
+    if manifest is not None:
         click.echo(f"digest matches splits/{split_name}.json")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import difflib
 import json
 from pathlib import Path
 
@@ -109,7 +110,8 @@ def baseline():
               help="Observations used per example (evenly spaced when an example has more).")
 @click.option("-o", "--output", type=click.Path(), required=True, help="Predictions CSV to write.")
 @click.option("--overwrite", is_flag=True, help="Replace an existing predictions file.")
-def vosde(stores, data, n_obs, output, overwrite):
+@click.option("--json", "as_json", is_flag=True, help="Print the per-store counts as JSON.")
+def vosde(stores, data, n_obs, output, overwrite, as_json):
     """VOS-DE (WACV 2020), the ODMS baseline, from the stored mask statistics.
 
     STORES are split names (looked up in the data folders) or store paths; none means every
@@ -133,7 +135,9 @@ def vosde(stores, data, n_obs, output, overwrite):
             continue
         found = found if found is not None else find_stores(data_locations(data))
         if s not in found:
-            raise InputError(f"{s}: neither a store path nor a split in the data folders "
+            close = difflib.get_close_matches(s, list(found), n=1)
+            hint = f"; did you mean {close[0]}?" if close else ""
+            raise InputError(f"{s}: neither a store path nor a split in the data folders{hint} "
                              f"(they hold: {', '.join(sorted(found))})")
         paths.append(found[s])
     if stores:
@@ -141,18 +145,22 @@ def vosde(stores, data, n_obs, output, overwrite):
     else:
         found = find_stores(data_locations(data))
         paths = [found[s] for s in sorted(found, key=split_order)]
-    rows, lines = [], []
-    with progress(len(paths), "VOS-DE") as update:
+    rows, counts = [], []
+    with progress(len(paths), "VOS-DE (stores)") as update:
         for p in paths:
             with open_store(str(p)) as s:
                 r = run_vosde(s, n_obs)
             update(1)
             rows += r.rows()
-            lines.append(f"{r.split}: {len(r.d1)} examples, {int(r.unsolvable.sum())} unsolvable "
-                         f"(predicted 0), {int(r.empty_masks.sum())} with an empty mask among the used "
-                         "observations")
+            counts.append({"split": r.split, "examples": len(r.d1), "unsolvable": int(r.unsolvable.sum()),
+                           "empty_masks": int(r.empty_masks.sum())})
     write_predictions(output, rows, overwrite=overwrite)
-    click.echo("\n".join(lines))
+    if as_json:
+        echo_json({"output": output, "n_obs": n_obs, "predictions": len(rows), "splits": counts})
+        return
+    for c in counts:
+        click.echo(f"{c['split']}: {c['examples']} examples, {c['unsolvable']} unsolvable (predicted 0), "
+                   f"{c['empty_masks']} with an empty mask among the used observations")
     click.echo(f"wrote {output}: {len(rows)} predictions (VOS-DE, n = {n_obs})")
 
 
@@ -163,7 +171,8 @@ def vosde(stores, data, n_obs, output, overwrite):
               help="Mean percent error or mean absolute error (cm; driving in m).")
 @click.option("--dir", "folder", type=click.Path(file_okay=False), default=None,
               help="Folder of entries (default: the leaderboard/ shipped with odms-data).")
-def leaderboard(family, metric, folder):
+@click.option("--json", "as_json", is_flag=True, help="Print the ranked entries as JSON (all metrics).")
+def leaderboard(family, metric, folder, as_json):
     """Print the leaderboard as markdown, sorted by All (lowest error first).
 
     \b
@@ -171,6 +180,14 @@ def leaderboard(family, metric, folder):
       odms-data leaderboard
       odms-data leaderboard --family val --metric abs
     """
-    from ..evaluation.leaderboard import load_entries, render_markdown
+    from ..evaluation.leaderboard import family_all, load_entries, ranked, render_markdown
 
-    click.echo(render_markdown(load_entries(folder), family, metric), nl=False)
+    entries = load_entries(folder)
+    if as_json:
+        keys = ("name", "n_obs", "training_data", "radial_input", "figures", "link", "citation")
+        echo_json([
+            {"rank": rank, **{k: e.get(k) for k in keys}, "all": family_all(e, family),
+             "results": e["results"][family]}
+            for rank, e in enumerate(ranked(entries, family), 1)])
+        return
+    click.echo(render_markdown(entries, family, metric), nl=False)

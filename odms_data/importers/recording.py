@@ -89,7 +89,9 @@ def read_positions(
                 raise InputError(f"{where}: depth {row.depth.strip()} is not a positive distance")
             path = mask_dir / frame
             if not path.is_file():
-                raise InputError(f"{where}: frame '{frame}' not found in {mask_dir}")
+                inner = sorted(mask_dir.glob(f"*/{frame}"))  # MASK_DIR one folder too high?
+                hint = f"; did you mean MASK_DIR {inner[0].parent}?" if inner else ""
+                raise InputError(f"{where}: frame '{frame}' not found in {mask_dir}{hint}")
             st = path.stat()
             same = seen_file.get((st.st_dev, st.st_ino))
             if same:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -23,7 +24,7 @@ from .format import (
     stats_problems,
     z_problems,
 )
-from .manifests import load_manifest, split_names
+from .manifests import SplitManifest, load_manifest, split_names
 from .masks import mask_stats, packed_width, unpack
 from .reader import Store, open_store
 
@@ -42,8 +43,9 @@ class Report:
         return not self.problems
 
 
-def validate(path: str) -> Report:
-    """Every problem of the store at `path`, one line each; never raises for a bad store."""
+def validate(path: str, progress: Callable[[int], None] | None = None) -> Report:
+    """Every problem of the store at `path`, one line each; never raises for a bad store.
+    `progress(k)` is called as each block of k frames' masks has been checked."""
     report = Report(str(path))
     try:
         backend = open_backend(str(path), "r")
@@ -72,13 +74,13 @@ def validate(path: str) -> Report:
         return report
     try:
         with open_store(str(path)) as store:
-            _check_content(store, report)
+            _check_content(store, report, progress)
     except OdmsError as e:
         report.problems.append(str(e))
     return report
 
 
-def _check_content(store: Store, report: Report) -> None:
+def _check_content(store: Store, report: Report, progress: Callable[[int], None] | None) -> None:
     """Every rule of format.py over the arrays as stored, then the masks and the digest."""
     P = report.problems
     split = store.attrs.split
@@ -125,10 +127,10 @@ def _check_content(store: Store, report: Report) -> None:
             report.warnings.append(f"example {eid}: z is not strictly increasing (recorded oddity)")
         else:
             P.append(f"example {eid}: z is not strictly increasing")
-    _check_masks(store, report)
+    _check_masks(store, report, progress)
 
 
-def _check_masks(store: Store, report: Report) -> None:
+def _check_masks(store: Store, report: Report, progress: Callable[[int], None] | None) -> None:
     W, pad_bits = store.width, packed_width(store.width) * 8 - store.width
     area, largest, bbox = store.raw("area"), store.raw("largest_area"), store.raw("bbox")
     pad_mask = np.uint8((1 << pad_bits) - 1) if pad_bits else None
@@ -143,6 +145,8 @@ def _check_masks(store: Store, report: Report) -> None:
             a, la, box = mask_stats(m)
             if a != area[f] or la != largest[f] or tuple(bbox[f]) != box:
                 wrong_stats.append(f)
+        if progress:
+            progress(len(block))
 
     try:
         digest, _ = recompute_digest(store, visit)
@@ -166,7 +170,15 @@ def _check_masks(store: Store, report: Report) -> None:
         if manifest.digest != digest:
             report.problems.append(
                 f"content digest {digest} differs from splits/{manifest.name}.json ({manifest.digest})"
+                + _version_hint(store.attrs.generator_version, manifest)
             )
+
+
+def _version_hint(version: int | None, manifest: SplitManifest) -> str:
+    if version is None or version == manifest.generator_version:
+        return ""
+    return (f": the store was made by generator version {version}, the split is version "
+            f"{manifest.generator_version}'s (odms-data generate --split {manifest.name})")
 
 
 def _first(values, k: int = 5) -> str:

@@ -11,9 +11,10 @@ import zarr
 from odms_data.errors import InputError, StoreError, StoreExistsError, StoreLockedError
 from odms_data.simulate.generate_store import generate
 from odms_data.simulate.object_model import sample_example
-from odms_data.simulate.params import PRESETS
+from odms_data.simulate.params import GENERATOR_VERSION, PRESETS
 from odms_data.simulate.render import render_masks
 from odms_data.store.convert import convert
+from odms_data.store.digest import frame_digests, padded_frame_digest
 from odms_data.store.masks import pack, stats_of, unpack
 from odms_data.store.reader import open_store
 from odms_data.store.validate import validate
@@ -34,6 +35,16 @@ def test_pack_unpack_round_trip_for_odd_widths():
     for width in (8, 13, 640):
         m = rng.random((3, 7, width)) < 0.5
         np.testing.assert_array_equal(unpack(pack(m), width), m)
+
+
+@pytest.mark.parametrize("y0, y1", [(0, 0), (0, 7), (3, 5), (6, 9), (0, 9), (9, 9)])
+def test_a_frame_digest_from_its_drawn_rows_equals_the_whole_frames(y0, y1):
+    rng = np.random.default_rng(y0 * 10 + y1)
+    frame = np.zeros((1, 9, 5), np.uint8)
+    frame[0, y0:y1] = rng.integers(0, 256, (y1 - y0, 5), dtype=np.uint8)
+    for z, depth in [(0.25, 0.25), (0.5, float("nan"))]:
+        whole = frame_digests(frame, np.array([z]), np.array([depth]))[0].tobytes()
+        assert padded_frame_digest(frame[0, y0:y1], y0, 9, z, depth) == whole
 
 
 def test_store_holds_what_the_generator_draws(small_zarr):
@@ -145,6 +156,20 @@ def test_validate_reports_a_store_that_does_not_match_its_manifest(tmp_path):
     generate(str(path), 3, PRESETS["standard"], 1, split="sim-val")
     problems = validate(str(path)).problems
     assert any("differs from splits/sim-val.json" in p for p in problems), problems
+    assert not any("generator version" in p for p in problems), problems
+
+
+def test_a_store_from_before_the_generator_version_opens_as_version_1(tmp_path):
+    path = tmp_path / "sim-val.zarr"
+    attrs = generate(str(path), 3, PRESETS["standard"], 1, split="sim-val")
+    assert attrs.generator["version"] == GENERATOR_VERSION == 2
+    meta = json.loads((path / "zarr.json").read_text())
+    del meta["attributes"]["odms"]["generator"]["version"]  # as written before the version existed
+    (path / "zarr.json").write_text(json.dumps(meta))
+    with open_store(str(path)) as s:
+        assert s.attrs.generator_version == 1
+    problems = validate(str(path)).problems
+    assert any("made by generator version 1, the split is version 2's" in p for p in problems), problems
 
 
 def test_incomplete_store_is_refused(tmp_path, small_zarr):
