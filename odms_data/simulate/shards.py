@@ -15,9 +15,9 @@ import numpy as np
 from ..store.digest import example_digest, frame_digests
 from ..store.masks import FrameStats, pack, packed_width
 from ..store.writer import write_shard_masks
+from .batch_render import render_boxes
 from .object_model import sample_example
 from .params import GeneratorParams
-from .render import render_frame
 
 SOURCE = "generated"
 
@@ -67,13 +67,14 @@ def run_shard(task: ShardTask) -> ShardResult:
         spec = sample_example(p, task.seed, index)
         rows = slice(e * n, (e + 1) * n)
         z[rows] = spec.z
-        for i in range(n):
-            box = render_frame(spec, p, i, frame)
-            if box is None:
+        for i, drawn in enumerate(render_boxes([spec], p)):  # render.render_frame's pixels
+            if drawn is None:
                 continue
-            x0, y0, x1, y1 = box
+            box, x0, y0 = drawn
+            y1, x1 = y0 + box.shape[0], x0 + box.shape[1]
             f = e * n + i
-            stats.set(f, frame[y0:y1, x0:x1], x0, y0)
+            frame[y0:y1, x0:x1] = box
+            stats.set(f, box, x0, y0)
             packed[f, y0:y1] = pack(frame[y0:y1])
             frame[y0:y1, x0:x1] = 0
         fd = frame_digests(packed[rows], z[rows], z[rows])

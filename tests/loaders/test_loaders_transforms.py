@@ -19,9 +19,10 @@ from odms_data.loaders.transforms import (
     radial_template,
     resize_masks,
 )
-from odms_data.simulate.batch_render import render_masks, render_shrunk
+from odms_data.simulate.batch_render import render_boxes, render_masks, render_shrunk
 from odms_data.simulate.object_model import sample_example
 from odms_data.simulate.params import GeneratorParams, preset
+from odms_data.simulate.render import render_frame
 from odms_data.simulate.render import render_masks as generator_render
 from odms_data.simulate.shrink import shrink_boxes
 from odms_data.store.masks import stats_of
@@ -108,6 +109,24 @@ def test_fast_render_matches_generator(params):
     render_masks(specs[:2], params, (112, 112), frames, out)
     for spec, masks in zip(specs[:2], out, strict=True):
         assert np.array_equal(masks, generator_render(spec, params, (112, 112))[frames])
+
+
+@pytest.mark.parametrize("params", [GeneratorParams(), preset("perturb", perturb_std=3.0), CLIPPED])
+def test_boxes_are_what_render_frame_draws(params):
+    specs = [sample_example(params, 14, index) for index in range(30)]
+    boxes = render_boxes(specs, params)
+    n = params.n_obs
+    assert len(boxes) == len(specs) * n
+    for f, drawn in enumerate(boxes):
+        want = np.zeros(params.image_size, np.uint8)
+        box = render_frame(specs[f // n], params, f % n, want)
+        if box is None:
+            assert drawn is None
+            continue
+        got = np.zeros_like(want)
+        pixels, x0, y0 = drawn
+        got[y0 : y0 + pixels.shape[0], x0 : x0 + pixels.shape[1]] = pixels
+        assert (x0, y0, x0 + pixels.shape[1], y0 + pixels.shape[0]) == box and np.array_equal(got, want)
 
 
 @pytest.mark.parametrize("params", [GeneratorParams(), preset("perturb", perturb_std=3.0), CLIPPED])
