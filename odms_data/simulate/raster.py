@@ -7,7 +7,7 @@ object when the closed contour passes through it, or when it is enclosed by such
 even where the contour crosses itself. The released generator marks the pixel of each of 2,000
 points per Bezier segment and fills the holes; this marks every pixel each straight edge of the
 contour polygon passes through, computed in float64 (where an edge runs exactly through a pixel
-corner, it is taken to pass from one pixel to the one diagonally beyond).
+corner, its direction decides which of the pixels meeting there it marks).
 """
 
 from __future__ import annotations
