@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import difflib
 import json
 from dataclasses import dataclass
 from typing import Any
@@ -40,7 +41,9 @@ def load_manifest(name: str) -> SplitManifest:
     """The manifest of split `name`; an unknown name raises InputError listing the known ones."""
     path = resource_dir("splits") / f"{name}.json"
     if not path.is_file():
-        raise InputError(f"unknown split '{name}'; known splits: {', '.join(split_names())}")
+        close = difflib.get_close_matches(name, split_names(), n=1)
+        hint = f" (did you mean {close[0]}?)" if close else ""
+        raise InputError(f"unknown split '{name}'{hint}; known splits: {', '.join(split_names())}")
     return SplitManifest.from_json(json.loads(path.read_text()))
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -30,8 +31,9 @@ class Report:
         return not self.problems
 
 
-def validate(path: str) -> Report:
-    """Every problem of the store at `path`, one line each; never raises for a bad store."""
+def validate(path: str, progress: Callable[[int], None] | None = None) -> Report:
+    """Every problem of the store at `path`, one line each; never raises for a bad store.
+    `progress(k)` is called as each block of k frames' masks has been checked."""
     report = Report(str(path))
     try:
         backend = open_backend(str(path), "r")
@@ -60,13 +62,13 @@ def validate(path: str) -> Report:
         return report
     try:
         with open_store(str(path)) as store:
-            _check_content(store, report)
+            _check_content(store, report, progress)
     except OdmsError as e:
         report.problems.append(str(e))
     return report
 
 
-def _check_content(store: Store, report: Report) -> None:
+def _check_content(store: Store, report: Report, progress: Callable[[int], None] | None) -> None:
     P = report.problems
     F, E = store.n_frames, store.n_examples
     fi = store.frame_index
@@ -106,10 +108,10 @@ def _check_content(store: Store, report: Report) -> None:
         P.append(f"example ids are not unique: {', '.join(dup)}")
     if any(not x for x in ids):
         P.append("an example id is empty")
-    _check_masks(store, report)
+    _check_masks(store, report, progress)
 
 
-def _check_masks(store: Store, report: Report) -> None:
+def _check_masks(store: Store, report: Report, progress: Callable[[int], None] | None) -> None:
     W, pad_bits = store.width, packed_width(store.width) * 8 - store.width
     pad_mask = np.uint8((1 << pad_bits) - 1) if pad_bits else None
     wrong_stats: list[int] = []
@@ -124,6 +126,8 @@ def _check_masks(store: Store, report: Report) -> None:
             if (area != store.area[f] or largest != store.largest_area[f]
                     or tuple(store.bbox[f]) != bbox):
                 wrong_stats.append(f)
+        if progress:
+            progress(len(block))
 
     try:
         digest, _ = recompute_digest(store, visit)
