@@ -18,9 +18,9 @@ import numpy as np
 from ..store.digest import example_digest, padded_frame_digest
 from ..store.masks import FrameStats, packed_width
 from ..store.shard_writer import ShardChunks
+from .batch_render import render_boxes
 from .object_model import sample_example
 from .params import GeneratorParams
-from .render import render_frame
 
 SOURCE = "generated"
 
@@ -75,11 +75,13 @@ def run_shard(task: ShardTask) -> ShardResult:
             spec = sample_example(p, task.seed, index)
             z[e * n : (e + 1) * n] = spec.z
             drawn, frame_digests = [], []
-            for i in range(n):
-                box = render_frame(spec, p, i, frame)
-                x0, y0, x1, y1 = box or (0, 0, 0, 0)
+            for i, box in enumerate(render_boxes([spec], p)):  # render.render_frame's pixels
+                x0, y0, x1, y1 = 0, 0, 0, 0
                 if box is not None:
-                    stats.set(e * n + i, frame[y0:y1, x0:x1], x0, y0)
+                    pixels, x0, y0 = box
+                    y1, x1 = y0 + pixels.shape[0], x0 + pixels.shape[1]
+                    stats.set(e * n + i, pixels, x0, y0)
+                    frame[y0:y1, x0:x1] = pixels
                     b0, b1 = x0 // 8, -(-x1 // 8)  # the bytes the box's columns fall in
                     packed[i, y0:y1, b0:b1] = np.packbits(frame[y0:y1, 8 * b0 : 8 * b1], axis=-1)
                     frame[y0:y1, x0:x1] = 0

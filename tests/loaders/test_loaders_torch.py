@@ -30,7 +30,7 @@ def _indices(loader) -> list[int]:
 
 
 def test_store_dataset(store_path):
-    ds = StoreDataset(store_path, Transform(size=(56, 56), n_obs=5))
+    ds = StoreDataset(store_path, Transform(size=(56, 56), n_obs=5, rounded=True))
     loader = two_workers(ds, batch_size=8)
     batches = list(loader)
     b = batches[0]
@@ -61,7 +61,8 @@ def test_stream_dataset_workers_and_epochs():
     one = list(DataLoader(ds, batch_size=None))
     assert _indices(two) == list(range(32))  # no duplicates, none missing
     assert all(torch.equal(x[k], y[k]) for x, y in zip(two, one, strict=True) for k in x)
-    assert two[0]["masks"].shape == (8, 6, 112, 112) and two[0]["masks"].dtype == torch.uint8
+    assert two[0]["masks"].shape == (8, 6, 112, 112) and two[0]["masks"].dtype == torch.float32
+    assert two[0]["dz"].shape == (8, 5) and two[0]["zbar"].shape == (8, 4)
     ds.set_epoch(1)
     assert _indices(two_workers(ds, batch_size=None)) == list(range(32, 64))
     again = StreamDataset(8, 4, params=GeneratorParams(n_obs=6), seed=3)
