@@ -15,6 +15,7 @@ renamed into place when complete, as every output is (outputs.py). Needs pyarrow
 from __future__ import annotations
 
 import hashlib
+import json
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -101,11 +102,18 @@ def sha256(path: Path) -> str:
 
 
 def _not_an_export(path: Path) -> str | None:
-    """What makes `path` something else than an earlier export or an empty folder (None if not)."""
+    """What makes `path` something else than an earlier export or an empty folder (None if not):
+    an export is a folder whose croissant.json names odms-data as its creator."""
     if not path.is_dir():
         return "is a file, not an earlier export"
-    if any(path.iterdir()) and not (path / "croissant.json").is_file():
-        return "is not an earlier export (no croissant.json)"
+    if not any(path.iterdir()):
+        return None
+    try:
+        creator = json.loads((path / "croissant.json").read_text(encoding="utf-8"))["creator"]["name"]
+    except (OSError, ValueError, KeyError, TypeError):
+        creator = None
+    if not (isinstance(creator, str) and creator.startswith("odms-data ")):
+        return "is not an earlier export (no croissant.json written by odms-data)"
     return None
 
 

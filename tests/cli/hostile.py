@@ -448,6 +448,28 @@ STORE_OUTPUTS = {  # name -> command without the output
     "convert": ["convert", "tiny.zarr"],
     "import recording": [*REC, "-o"],
 }
+EXPORT = ["export", "tiny.zarr", "-o"]
+EARLIER = write("hub/croissant.json", '{"creator": {"name": "odms-data 0.1"}}')
+case(D, "export: --overwrite keeps a folder of photos", [*EXPORT, "photos", "--overwrite"],
+     ("tiny.zarr", "photos"), says=("photos", "not an earlier export"))
+case(D, "export: --overwrite keeps a thesis", [*EXPORT, "thesis.pdf", "--overwrite"],
+     ("tiny.zarr", "thesis.pdf"), says=("thesis.pdf", "not an earlier export"))
+case(D, "export: --overwrite keeps another tool's Croissant dataset", [*EXPORT, "hub", "--overwrite"],
+     ("tiny.zarr",), setup=write("hub/croissant.json", '{"creator": {"name": "someone"}}'),
+     says=("hub", "not an earlier export"))
+case(D, "export: an earlier export is kept", [*EXPORT, "hub"], ("tiny.zarr",), setup=EARLIER,
+     says=("hub", "already exists"))
+case(D, "export: --overwrite replaces an earlier export", [*EXPORT, "hub", "--overwrite"], ("tiny.zarr",),
+     setup=EARLIER, expect=0, outputs=("hub",),
+     check=holds(lambda cwd, r: len(list(cwd.glob("hub/data/tiny/*.parquet"))) == 1, "no Parquet file"))
+case(D, "export: --overwrite fills an empty folder", [*EXPORT, "empty", "--overwrite"],
+     ("tiny.zarr", "empty"), expect=0, outputs=("empty",),
+     check=holds(lambda cwd, r: (cwd / "empty/README.md").is_file(), "no card"))
+case(D, "export: full disk, nothing left", [*EXPORT, "disk/hub"], ("tiny.zarr",), says=("disk/hub",),
+     process=True, disk_kib=64, full=True)
+case(D, "export: disk full mid-file, nothing left", ["export", "big.zarr", "-o", "disk/hub"],
+     setup=lambda cwd: make_valid(cwd / "big.zarr", count=1000), says=("disk/hub", "no space"),
+     process=True, disk_kib=64)
 for what, cmd in STORE_OUTPUTS.items():
     needs = ("tiny.zarr", "rec", "positions.csv")
     case(D, f"{what}: --overwrite keeps a folder of photos", [*cmd, "photos", "--overwrite"],
@@ -585,6 +607,9 @@ case(C, "SIGHUP during convert", ["convert", "big.zarr", "t.h5"], expect=129, pr
      setup=lambda cwd: make_valid(cwd / "big.zarr", count=1000), stop=(signal.SIGHUP, "t.h5.lock", 0.0))
 case(C, "SIGTERM during import", [*REC, "-o", "t.zarr"], setup=lambda cwd: _recording(cwd, n=1000),
      expect=143, process=True, stop=(signal.SIGTERM, "t.zarr.partial/masks", 0.0))
+case(C, "SIGTERM during export", ["export", "big.zarr", "-o", "hub", "--examples-per-file", "10"],
+     expect=143, process=True, setup=lambda cwd: make_valid(cwd / "big.zarr", count=1000),
+     stop=(signal.SIGTERM, "hub.partial/data", 0.0))
 case(C, "score --json with absurd predictions", [*SCORE[:1], "q.csv", *SCORE[2:], "--json"], STORE_NEEDS,
      setup=lambda cwd: (cwd / "q.csv").write_text(
          "\n".join([HEADER, *(f"tiny,tiny/{i:06d},1e308" for i in range(4))]) + "\n"),

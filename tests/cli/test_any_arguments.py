@@ -41,7 +41,8 @@ text = st.text(alphabet="ab/._- 0é", max_size=8)
 def command(draw) -> tuple[list[str], list[str]]:
     """(arguments, output paths they name)."""
     which = draw(st.sampled_from(["generate", "info", "validate", "show", "convert", "score", "baseline",
-                                  "leaderboard", "import recording", "import odms", "import synthia"]))
+                                  "leaderboard", "import recording", "import odms", "import synthia",
+                                  "export"]))
     extra = draw(st.lists(flag, max_size=2))
     out = draw(outputs)
     if which == "generate":
@@ -61,6 +62,8 @@ def command(draw) -> tuple[list[str], list[str]]:
         args = ["score", draw(st.sampled_from(PREDICTIONS)), "--data", draw(inputs)]
         args += draw(st.sampled_from([[], ["--plot", out], ["--entry", out, "--name", "Me"]]))
         out = out if len(args) > 4 else None
+    elif which == "export":
+        args = ["export", draw(inputs), "-o", out]
     elif which == "baseline":
         args = ["baseline", "vosde", draw(inputs), "-o", out, "--n-obs", draw(numbers)]
     elif which == "leaderboard":
@@ -91,10 +94,15 @@ def setup_folder(fixtures: Path, work: Path, damage: str) -> None:
     DAMAGE[damage][1](work / "broken.zarr")
 
 
-def whole(path: Path, source: Path | None) -> None:
-    """A success's output is complete: a valid store (a converted one: as valid as its source), or
-    a file its format reads."""
-    if path.suffix in (".zarr", ".h5") or path.is_dir():
+def whole(path: Path, command: str, source: Path | None) -> None:
+    """A success's output is complete: a valid store (a converted one: as valid as its source), an
+    export whose every Parquet file and Croissant file reads, or a file its format reads."""
+    if command == "export":
+        import pyarrow.parquet as pq
+
+        json.loads((path / "croissant.json").read_text())
+        assert sum(pq.read_metadata(f).num_rows for f in path.glob("data/*/*.parquet")) > 0
+    elif path.suffix in (".zarr", ".h5") or path.is_dir():
         problems = validate(str(path)).problems
         assert problems == (validate(str(source)).problems if source else []), problems
     elif path.suffix == ".csv":
@@ -131,5 +139,5 @@ def test_any_command_keeps_the_promises(fixtures, tmp_path_factory, cmd, damage)
                    for k in changed), (args, sorted(changed)[:5])
         for o in outs:
             if (work / o).exists() and any(k == o or k.startswith(o + "/") for k in changed):
-                whole(work / o, work / args[1] if args[0] == "convert" else None)
+                whole(work / o, args[0], work / args[1] if args[0] == "convert" else None)
     assert not [k for k in after if k.endswith((".partial", ".lock"))], (args, sorted(after))
