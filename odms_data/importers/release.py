@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..benchmark import OFFICIAL_SPLITS, ROBOT_FRAMES, ROBOT_N_OBS, ROBOT_WINDOWS, protocol_windows
-from ..errors import DigestMismatchError, InputError
+from ..errors import DigestMismatchError, InputError, OutputExistsError
 from ..store.format import StoreAttrs
 from ..store.manifests import check_against_manifest, load_manifest, split_names
 from .builder import BadFiles, build_store
@@ -203,6 +203,8 @@ def import_release(
     data_dir, out_dir = Path(data_dir), Path(out_dir)
     if not data_dir.is_dir():
         raise InputError(f"{data_dir}: no such folder (give the release's data/ folder)")
+    if out_dir.exists() and not out_dir.is_dir():
+        raise OutputExistsError(f"{out_dir}: is a file; give a folder for the stores")
     names = list(splits or OFFICIAL_SPLITS)
     unknown = [n for n in names if n not in OFFICIAL_SPLITS]
     if unknown:

@@ -190,6 +190,17 @@ def test_bad_release_is_one_line_and_writes_nothing(tmp_path, case):
     assert not out.exists() or not any(out.iterdir())
 
 
+@pytest.mark.parametrize("overwrite", [(), ("--overwrite",)])
+def test_an_output_that_is_a_file_is_named_and_kept(tmp_path, overwrite):
+    data = fake_release(tmp_path)
+    out = tmp_path / "thesis.pdf"
+    out.write_bytes(b"my thesis")
+    result = run_import(data, out, "normal", "--no-verify", *overwrite)
+    line = _one_line_error(result, "thesis.pdf: is a file")
+    assert "give a folder" in line and out.read_bytes() == b"my thesis"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["data", "thesis.pdf"]
+
+
 def test_content_differing_from_the_manifest_is_refused(tmp_path):
     data = fake_release(tmp_path)
     out = tmp_path / "stores"
