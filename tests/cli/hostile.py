@@ -485,6 +485,10 @@ for what, cmd in STORE_OUTPUTS.items():
     for fmt in ("zarr", "h5"):
         case(D, f"{what}: full disk ({fmt}), nothing left", [*cmd, f"disk/out.{fmt}"], needs,
              says=(f"disk/out.{fmt}",), process=True, disk_kib=8)
+for fmt in ("zarr", "h5"):  # the disk fills while shards are written, by two worker processes
+    case(D, f"generate: disk full mid-way ({fmt}), nothing left",
+         ["generate", "-n", "300", "--workers", "2", "-o", f"disk/g.{fmt}"],
+         says=(f"disk/g.{fmt}", "no space"), process=True, disk_kib=256)
 case(D, "convert: a failure leaves no folders it made", ["convert", "tiny.zarr", "new/dir/out.h5"],
      ("tiny.zarr",), setup=damaged("digest wrong"), says=("content digest",))
 case(D, "generate: the default output is kept", [*G], setup=write("generated.zarr/x.txt", "mine"),
