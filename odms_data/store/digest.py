@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..errors import StoreError
 from .format import decode_strings
 
 DIGEST_PREFIX = b"odms-store-content/1"
@@ -113,3 +114,17 @@ def recompute_digest(
         example_digest(ids[i], sources[i], d1[i], fd[row[row >= 0]]) for i, row in enumerate(fi)
     )
     return digest.hexdigest(), fd
+
+
+def check_recorded_digest(
+    store: Store, path: str, visit: Callable[[int, np.ndarray], None] | None = None
+) -> str:
+    """`recompute_digest` that refuses a store (at `path`, for the message) whose content differs
+    from the digest it records; returns the digest."""
+    digest, _ = recompute_digest(store, visit)
+    if digest != store.attrs.digest:
+        raise StoreError(
+            f"{path}: content digest {digest} differs from the recorded {store.attrs.digest}; "
+            "run `odms-data validate` on it"
+        )
+    return digest
