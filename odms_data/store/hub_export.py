@@ -9,7 +9,9 @@ One row per example: `example_id`, `split`, `source`, `d1` (NaN when unlabelled)
 the store packs them (store/masks.py: rows of ceil(width / 8) bytes, most significant bit first).
 `datasets.load_dataset(DIR)` reads it, one split per store (named with `_` for `-`, as the Hub
 allows only letters, digits and `_` in split names). The folder is written as DIR.partial and
-renamed into place when complete, as every output is (outputs.py). Needs pyarrow (the `hub` extra).
+renamed into place when complete, as every output is (outputs.py); a store whose content differs
+from its recorded digest is refused, since the card publishes the digests. Needs pyarrow (the
+`hub` extra).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..outputs import atomic_folder
+from .digest import check_recorded_digest
 from .hub_metadata import croissant, dataset_card, hub_split, licence_of
 from .reader import Store, open_store
 
@@ -148,6 +151,8 @@ def export_hub(
             raise InputError(f"splits {' and '.join(s for s in splits if hub_split(s) == clash)} both become "
                              f"the Hub split {clash}; export them separately")
         licence = licence or licence_of([s.attrs for s in opened])
+        for path, s in zip(stores, opened, strict=True):  # the card publishes each store's digest
+            check_recorded_digest(s, path)
         with atomic_folder(target, overwrite=overwrite, foreign=_not_an_export) as partial:
             exported = [_write_split(s, partial, examples_per_file, progress) for s in opened]
             title, attrs = name or target.name, [s.attrs for s in opened]

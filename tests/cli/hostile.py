@@ -557,6 +557,9 @@ for kind in ("id without its split", "depth infinite", "no examples", "d1 is not
              "duplicate ids", "frame_index past the frames", "largest_area negative"):
     case(M, f"validate finds: {kind}", ["validate", "tiny.zarr"], ("tiny.zarr",), setup=damaged(kind),
          expect=1, check=holds(lambda cwd, r: "INVALID" in r.out, "validate said valid"))
+for kind in ("digest wrong", "z not increasing", "d1 is not the first frame's depth"):
+    case(M, f"export: a store with {kind} is not published", [*EXPORT, "hub"], ("tiny.zarr",),
+         setup=damaged(kind), says=("tiny.zarr", "content digest"))
 case(M, "recording: one frame under two spellings", REC + ["-o", "out.zarr"], ("rec", "positions.csv"),
      setup=lambda cwd: (cwd / "positions.csv").write_text(
          (cwd / "positions.csv").read_text() + "./f1.png,0.9,1.0\n"), says=("same file",))
