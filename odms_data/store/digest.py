@@ -120,7 +120,8 @@ def check_recorded_digest(
     store: Store, path: str, visit: Callable[[int, np.ndarray], None] | None = None
 ) -> str:
     """`recompute_digest` that refuses a store (at `path`, for the message) whose content differs
-    from the digest it records; returns the digest."""
+    from the digest it records, or that breaks the format's read rules; returns the digest."""
+    _ = store.frame_index, store.example_ids, store.sources  # read first: the format's rules checked
     digest, _ = recompute_digest(store, visit)
     if digest != store.attrs.digest:
         raise StoreError(
