@@ -5,7 +5,8 @@ the messages):
 - the content goes to the sibling `<path>.partial` under the lock `<path>.lock` (flock, one
   writer at a time), is flushed to disk and renamed into place, so the old file survives any
   failure and a half-written file is never left at the path;
-- a failed write (a full disk, say) removes the sibling and is one line naming the path.
+- a failed write (a full disk, say) removes the sibling and is one line naming the path;
+- nothing is written inside a Zarr store (a folder holding zarr.json).
 """
 
 from __future__ import annotations
@@ -49,8 +50,12 @@ def _make_parents(path: Path) -> list[Path]:
 @contextmanager
 def output_lock(path: str | os.PathLike, noun: str = "file") -> Iterator[None]:
     """Hold `<path>.lock` (flock, holding this process's id) while `path` is written. Folders made
-    for it are removed again when they are left empty (the write failed)."""
+    for it are removed again when they are left empty (the write failed). A path inside a Zarr
+    store is refused."""
     lock = Path(str(path).rstrip("/") + ".lock")
+    store = next((p for p in lock.absolute().parents if (p / "zarr.json").is_file()), None)
+    if store is not None:  # it would become part of the store (an input, most often)
+        raise InputError(f"{path}: is inside the Zarr store {store}; choose an output outside it")
     try:
         made = _make_parents(lock)
         fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)

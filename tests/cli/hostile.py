@@ -489,6 +489,11 @@ for fmt in ("zarr", "h5"):  # the disk fills while shards are written, by two wo
     case(D, f"generate: disk full mid-way ({fmt}), nothing left",
          ["generate", "-n", "300", "--workers", "2", "-o", f"disk/g.{fmt}"],
          says=(f"disk/g.{fmt}", "no space"), process=True, disk_kib=256)
+INSIDE = {"export": [*EXPORT, "tiny.zarr/hub"], "convert": ["convert", "tiny.zarr", "tiny.zarr/t.zarr"],
+          "baseline -o": [*VOSDE, "-o", "tiny.zarr/v.csv"], "show -o": [*SHOW, "-o", "tiny.zarr/s.png"],
+          "generate": [*G, *TINY, "-o", "tiny.zarr/x/g.h5"]}
+for what, cmd in INSIDE.items():
+    case(D, f"{what}: an output inside a store is refused", cmd, STORE_NEEDS, says=("inside the Zarr store",))
 case(D, "convert: a failure leaves no folders it made", ["convert", "tiny.zarr", "new/dir/out.h5"],
      ("tiny.zarr",), setup=damaged("digest wrong"), says=("content digest",))
 case(D, "generate: the default output is kept", [*G], setup=write("generated.zarr/x.txt", "mine"),
