@@ -130,6 +130,20 @@ def sync_parent(path: str | os.PathLike) -> None:
     _fsync(Path(path).absolute().parent, os.O_RDONLY | os.O_DIRECTORY)
 
 
+def move_into_place(partial: Path, target: Path) -> None:
+    """Rename the finished `partial` onto `target`, whose old content is moved aside first and
+    removed after, and flush the folder holding it."""
+    if target.exists() or target.is_symlink():
+        old = Path(f"{target}.replaced")
+        remove(old)
+        target.rename(old)
+        partial.rename(target)
+        remove(old)
+    else:
+        partial.rename(target)
+    sync_parent(target)
+
+
 @contextmanager
 def atomic_file(path: str | os.PathLike, *, overwrite: bool = False, option: str = "") -> Iterator[Path]:
     """Yields the temporary sibling to write `path` into; on leaving normally it is flushed and
@@ -186,15 +200,7 @@ def atomic_folder(
             partial.mkdir()
             yield partial
             fsync_tree(partial)
-            if target.exists():
-                old = Path(f"{path}.replaced")
-                remove(old)
-                target.rename(old)
-                partial.rename(target)
-                remove(old)
-            else:
-                partial.rename(target)
-            sync_parent(target)
+            move_into_place(partial, target)
         except BaseException as e:
             remove(partial)
             if isinstance(e, OSError) and (e.errno in DISK_FULL or str(e.filename).startswith(str(partial))):

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..errors import InputError, StoreError, StoreExistsError
 from ..interrupts import uninterrupted
-from ..outputs import DISK_FULL, fsync_tree, output_lock, remove, sync_parent, write_error
+from ..outputs import DISK_FULL, fsync_tree, move_into_place, output_lock, remove, write_error
 from .backends import HDF5_MAGIC, HDF5_SUFFIXES, Backend, detect_format, is_url, open_backend
 from .format import ATTRS_KEY, EXAMPLE_ARRAYS, FRAME_ARRAYS, StoreAttrs, encode_strings
 from .masks import FrameStats, packed_width
@@ -242,15 +242,7 @@ class StoreWriter:
                 target, partial = Path(self.path), Path(self.partial)
                 fsync_tree(partial)
                 check_new_store(self.path, self.overwrite)  # again: something may have come meanwhile
-                if target.exists() or target.is_symlink():
-                    old = Path(self.path + ".replaced")
-                    remove(old)
-                    target.rename(old)
-                    partial.rename(target)
-                    remove(old)
-                else:
-                    partial.rename(target)
-                sync_parent(target)
+                move_into_place(partial, target)
             self._committed = True
             return self.path
 
