@@ -147,11 +147,11 @@ def render_boxes(
     tops = np.concatenate([[0], np.cumsum(size[:, 1])])
     stacked = np.zeros((int(tops[-1]), int(size[:, 0].max())), np.uint8)  # the canvases, top to bottom
     _mark(stacked, g.poly, g.starts, np.stack([np.zeros_like(tops[:-1]), tops[:-1]], axis=1))
+    fill_enclosed(stacked, tops[:-1])  # each canvas has an empty border; the columns right of it too
     clip_lo, clip_hi = np.maximum(g.lo, 0), np.minimum(g.hi, [W, H])
     out: list[tuple[np.ndarray, int, int] | None] = []
     for f in range(len(size)):
         canvas: np.ndarray = stacked[tops[f] : tops[f + 1], : size[f, 0]]
-        fill_enclosed(canvas)
         if g.k[f]:
             canvas = (cv2.dilate if g.dilate[f] else cv2.erode)(canvas, CROSS, iterations=int(g.k[f]))
         (x0, y0), (cx0, cy0), (cx1, cy1) = g.lo[f], clip_lo[f], clip_hi[f]
