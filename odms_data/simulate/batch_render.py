@@ -138,9 +138,12 @@ def render_masks(
 
 def render_boxes(
     specs: Sequence[ExampleSpec], params: GeneratorParams
-) -> list[tuple[np.ndarray, int, int] | None]:
+) -> list[tuple[np.ndarray, int, int, bool] | None]:
     """For every frame of every example (example-major): the pixels `render.render_frame` draws
-    into a full-size frame, as (the drawn box, x0, y0), or None where it draws nothing."""
+    into a full-size frame, as (the drawn box, x0, y0, one_region), or None where it draws
+    nothing. `one_region`: the object is known to be one 8-connected region, as a silhouette is
+    (its contour pixels are a closed chain, the rest enclosed by it) unless eroded or cut by
+    the image border."""
     H, W = params.image_size
     g = frame_geometry(specs, params, _frames(specs, None), (H, W))
     size = g.hi - g.lo
@@ -149,14 +152,16 @@ def render_boxes(
     _mark(stacked, g.poly, g.starts, np.stack([np.zeros_like(tops[:-1]), tops[:-1]], axis=1))
     fill_enclosed(stacked, tops[:-1])  # each canvas has an empty border; the columns right of it too
     clip_lo, clip_hi = np.maximum(g.lo, 0), np.minimum(g.hi, [W, H])
-    out: list[tuple[np.ndarray, int, int] | None] = []
+    whole = (clip_lo == g.lo).all(axis=1) & (clip_hi == g.hi).all(axis=1) & (g.dilate | (g.k == 0))
+    out: list[tuple[np.ndarray, int, int, bool] | None] = []
     for f in range(len(size)):
         canvas: np.ndarray = stacked[tops[f] : tops[f + 1], : size[f, 0]]
         if g.k[f]:
             canvas = (cv2.dilate if g.dilate[f] else cv2.erode)(canvas, CROSS, iterations=int(g.k[f]))
         (x0, y0), (cx0, cy0), (cx1, cy1) = g.lo[f], clip_lo[f], clip_hi[f]
         drawn = cx0 < cx1 and cy0 < cy1
-        out.append((canvas[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0], int(cx0), int(cy0)) if drawn else None)
+        box = canvas[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0]
+        out.append((box, int(cx0), int(cy0), bool(whole[f])) if drawn else None)
     return out
 
 

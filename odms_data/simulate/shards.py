@@ -78,9 +78,9 @@ def run_shard(task: ShardTask) -> ShardResult:
             for i, box in enumerate(boxes):  # render.render_frame's pixels
                 x0, y0, x1, y1 = 0, 0, 0, 0
                 if box is not None:
-                    pixels, x0, y0 = box
+                    pixels, x0, y0, one_region = box
                     y1, x1 = y0 + pixels.shape[0], x0 + pixels.shape[1]
-                    stats.set(e * n + i, pixels, x0, y0)
+                    stats.set(e * n + i, pixels, x0, y0, one_region)
                     frame[y0:y1, x0:x1] = pixels
                     b0, b1 = x0 // 8, -(-x1 // 8)  # the bytes the box's columns fall in
                     packed[i, y0:y1, b0:b1] = np.packbits(frame[y0:y1, 8 * b0 : 8 * b1], axis=-1)
@@ -99,7 +99,7 @@ def run_shard(task: ShardTask) -> ShardResult:
 
 def _drawn(
     p: GeneratorParams, seed: int, start: int, stop: int
-) -> Iterator[tuple[int, ExampleSpec, list[tuple[np.ndarray, int, int] | None]]]:
+) -> Iterator[tuple[int, ExampleSpec, list[tuple[np.ndarray, int, int, bool] | None]]]:
     """(position in the shard, draws, render_boxes of its frames) of examples start..stop-1,
     drawn DRAW_CHUNK examples at a time."""
     for a in range(start, stop, DRAW_CHUNK):

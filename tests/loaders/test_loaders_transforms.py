@@ -115,7 +115,7 @@ def test_fast_render_matches_generator(params):
 def test_boxes_are_what_render_frame_draws(params):
     specs = [sample_example(params, 14, index) for index in range(30)]
     boxes = render_boxes(specs, params)
-    n = params.n_obs
+    n, split = params.n_obs, 0
     assert len(boxes) == len(specs) * n
     for f, drawn in enumerate(boxes):
         want = np.zeros(params.image_size, np.uint8)
@@ -124,9 +124,14 @@ def test_boxes_are_what_render_frame_draws(params):
             assert drawn is None
             continue
         got = np.zeros_like(want)
-        pixels, x0, y0 = drawn
+        pixels, x0, y0, one_region = drawn
         got[y0 : y0 + pixels.shape[0], x0 : x0 + pixels.shape[1]] = pixels
         assert (x0, y0, x0 + pixels.shape[1], y0 + pixels.shape[0]) == box and np.array_equal(got, want)
+        stats = stats_of(want[None])
+        if one_region:  # the generator then skips counting regions
+            assert stats.largest_area[0] == stats.area[0]
+        split += stats.largest_area[0] < stats.area[0]
+    assert split or params.perturb_std == 0  # eroded or cut frames in several regions exist
 
 
 @pytest.mark.parametrize("params", [GeneratorParams(), preset("perturb", perturb_std=3.0), CLIPPED])
