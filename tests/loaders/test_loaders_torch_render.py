@@ -8,10 +8,12 @@ import pytest
 import torch
 
 from odms_data.errors import InputError
+from odms_data.loaders.torch_render import contour_pixels as torch_contour_pixels
 from odms_data.loaders.torch_render import fill_enclosed, render_coverage
-from odms_data.simulate.batch_render import render_shrunk
+from odms_data.simulate.batch_render import frame_geometry, render_shrunk
 from odms_data.simulate.object_model import sample_example
 from odms_data.simulate.params import GeneratorParams
+from odms_data.simulate.raster import contour_pixels
 from odms_data.simulate.raster import fill_enclosed as cv2_fill_enclosed
 from odms_data.simulate.render import render_masks
 from odms_data.simulate.shrink import resize_masks
@@ -48,3 +50,12 @@ def test_coverage_equals_the_cpu_renderer_within_float_rounding(size):
 def test_a_size_larger_than_the_generators_is_refused():
     with pytest.raises(InputError, match="at most"):
         render_coverage([sample_example(SMALL, 0, 0)], SMALL, (240, 160))
+
+
+def test_contour_pixels_are_rasters_to_the_pixel():
+    g = frame_geometry([sample_example(SMALL, 3, i) for i in range(6)], SMALL, np.arange(10), (120, 160))
+    base = np.arange(len(g.k)) * 999
+    want = contour_pixels(g.poly, g.starts, 211, base)
+    poly, starts = torch.from_numpy(g.poly), torch.from_numpy(g.starts)
+    got = torch_contour_pixels(poly, starts, 211, torch.from_numpy(base))
+    assert np.array_equal(got.numpy(), want)
