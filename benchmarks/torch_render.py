@@ -5,8 +5,8 @@ CPU renderer (batch_render.render_shrunk, one process) measured in the same run.
 
 n = 10 frames an example, 112x112 float32 coverage masks, the standard preset. The examples'
 draws (object_model.sample_example) are made beforehand and not timed in either column, so the
-rates compare drawing the masks; the device column also counts the geometry and contour pixels
-its CPU side computes. The first device batch (warm-up) is not timed. Each device batch is
+rates compare drawing the masks; the device column also counts the polygons its CPU side
+computes (batch_render.frame_geometry). The first device batch (warm-up) is not timed. Each device batch is
 checked against the CPU renderer's masks (largest difference printed).
 """
 
