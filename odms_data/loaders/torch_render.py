@@ -86,7 +86,7 @@ def _runs_reached(background: torch.Tensor, reached: torch.Tensor) -> torch.Tens
     start = background.clone()
     start[..., 1:] &= ~background[..., :-1]
     run = torch.cumsum(start.reshape(-1), 0, dtype=torch.int64).reshape(background.shape)
-    hit = torch.zeros(int(run.max()) + 2 if run.numel() else 1, dtype=torch.bool, device=run.device)
+    hit = torch.zeros(run.numel() + 1, dtype=torch.bool, device=run.device)  # no sync for run.max()
     hit[run[reached]] = True
     return background & hit[run]
 
