@@ -24,8 +24,8 @@ from odms_data.simulate.object_model import sample_example
 from odms_data.simulate.params import GeneratorParams, preset
 from odms_data.simulate.render import render_frame
 from odms_data.simulate.render import render_masks as generator_render
-from odms_data.simulate.shrink import shrink_boxes
-from odms_data.store.masks import stats_of
+from odms_data.simulate.shrink import shrink_boxes, shrink_packed
+from odms_data.store.masks import pack, stats_of
 
 
 def test_observation_indices_are_linspace_truncated():
@@ -160,5 +160,8 @@ def test_shrink_boxes_matches_resize():
     params = preset("perturb")
     masks = np.concatenate([generator_render(sample_example(params, 13, i), params) for i in range(20)])
     boxes = stats_of(masks).bbox
-    for size, coverage in (((112, 112), False), ((112, 112), True), ((37, 53), False)):
-        assert np.array_equal(shrink_boxes(masks, boxes, size, coverage), resize_masks(masks, size, coverage))
+    packed = pack(masks)
+    for size, coverage in (((112, 112), False), ((112, 112), True), ((37, 53), False), ((240, 160), True)):
+        want = resize_masks(masks, size, coverage)
+        assert np.array_equal(shrink_boxes(masks, boxes, size, coverage), want)
+        assert np.array_equal(shrink_packed(packed, masks.shape[2], boxes, size, coverage), want)
