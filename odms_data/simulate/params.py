@@ -16,12 +16,14 @@ DEFAULT_EXAMPLES_PER_SHARD = 128  # examples per shard task of a generated store
 GENERATOR_VERSION = 2
 MAX_SIDE = 8192  # px, the largest image height or width
 MAX_FRAMES = 2**40  # frames in one store
+MAX_CURVE_POINTS = 100_000  # an outline's samples: its drawing takes over 2 KiB of memory each
 MAX_EXAMPLE_BYTES = 2**30  # one example's bit-packed masks, held in memory while it is drawn
 
 # name -> (kind, low, high): the allowed range of each parameter (of each item for tuples); a high
 # of None is relative to the image (see _range_problem). The ranges keep a frame's drawing bounded:
-# the object's box is at most 4 image sides (and MAX_SIDE), the Bezier handles at most 2 chords,
-# the perturbation at most 100 px deep, one example's masks at most MAX_EXAMPLE_BYTES.
+# the object's box is at most 4 image sides or 1000 px (and MAX_SIDE), the Bezier handles at most
+# 2 chords, the perturbation at most 100 px deep, a contour at most MAX_CURVE_POINTS points, one
+# example's masks at most MAX_EXAMPLE_BYTES.
 LIMITS: dict[str, tuple[type, float, float | None]] = {
     "n_obs": (int, 2, 1000),
     "d_min": (float, 0.0, 1e6), "d_max": (float, 0.0, 1e6), "dz_min": (float, 0.0, 1e6),
@@ -33,7 +35,7 @@ LIMITS: dict[str, tuple[type, float, float | None]] = {
     "perturb_std": (float, 0.0, 100.0),
     "min_spacing": (float, 0.0, 1.0),
     "spacing_tries": (int, 1, 10_000),
-    "curve_samples": (int, 2, 1000),
+    "curve_samples": (int, 2, 10_000),
 }
 POSITIVE = ("d_min", "d_max", "dz_min")  # strictly above their low
 LISTS = ("image_size", "sizes", "n_points", "bezier_radius", "bezier_rotation")
@@ -42,9 +44,9 @@ LISTS = ("image_size", "sizes", "n_points", "bezier_radius", "bezier_rotation")
 def _range_problem(name: str, value: Any, params: GeneratorParams) -> str | None:
     """What is wrong with `value` of parameter `name`, with the allowed range; None when nothing."""
     kind, low, high = LIMITS[name]
-    if high is None:  # sizes: up to 4 sides of the image
+    if high is None:  # sizes: up to 4 sides of the image, or 1000 px (the paper's sizes on any image)
         valid = _range_problem("image_size", params.image_size, params) is None
-        high = min(4 * max(params.image_size), MAX_SIDE) if valid else MAX_SIDE
+        high = min(max(4 * max(params.image_size), 1000), MAX_SIDE) if valid else MAX_SIDE
     what = "whole number" if kind is int else "number"
     shown = list(value) if isinstance(value, tuple) else value
     allowed = f"{what}s" if name in LISTS else f"a {what}"
@@ -87,6 +89,9 @@ class GeneratorParams:
                 problems.append(f"n_obs={self.n_obs} masks of {H}x{W} take "
                                 f"{self.n_obs * H * ((W + 7) // 8) / 2**30:.1f} GiB per example, more than "
                                 f"the {MAX_EXAMPLE_BYTES / 2**30:g} GiB allowed; use fewer or smaller masks")
+            if self.curve_samples * max(self.n_points) > MAX_CURVE_POINTS:
+                problems.append(f"curve_samples x the largest n_points must be <= {MAX_CURVE_POINTS}, got "
+                                f"{self.curve_samples} x {max(self.n_points)}")
             if not self.d_min < self.d_max:
                 problems.append(f"need d_min < d_max, got d_min={self.d_min}, d_max={self.d_max}")
             elif not self.dz_min <= self.d_max - self.d_min:

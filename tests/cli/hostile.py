@@ -515,6 +515,9 @@ for param, say in [
 ]:
     case(U, f"generate --param {param}", [*G, "--param", param, "-o", "x.zarr"], says=(say, "<="),
          process=True, timeout=60)
+case(U, "generate: curve_samples x n_points bounded", [*G, "--param", "curve_samples=10000", "--param",
+                                                        "n_points=[1000]", "-o", "x.zarr"],
+     says=("curve_samples x the largest n_points must be <= 100000",), process=True, timeout=60)
 case(U, "generate --n-obs 1000 at 8192 px", [*G, "--n-obs", "1000", "--param", "image_size=[8192,8192]",
                                              "-o", "x.zarr"], says=("GiB",), process=True, timeout=60)
 case(U, "generate -n 10**18", ["generate", "-n", str(10**18), "-o", "x.zarr"], says=("frames",),
