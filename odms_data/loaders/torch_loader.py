@@ -60,6 +60,7 @@ class StoreDataset(Dataset):
 class StreamDataset(IterableDataset):
     """`batches_per_epoch` batches of `batch_size` freshly generated examples per epoch; use with
     DataLoader(dataset, batch_size=None, num_workers=...) and call set_epoch(e) before each epoch.
+    `start`: the first batch of each epoch to make (to resume an interrupted run where it stopped).
     `direct`: see sources.GeneratedExamples."""
 
     def __init__(
@@ -71,13 +72,17 @@ class StreamDataset(IterableDataset):
         seed: int = 0,
         transform: Transform = PAPER_TRANSFORM,
         direct: bool = False,
+        start: int = 0,
     ) -> None:
         if batch_size < 1 or batches_per_epoch < 1:
             raise InputError(
                 f"need batch_size >= 1 and batches_per_epoch >= 1, got {batch_size}, {batches_per_epoch}"
             )
+        if not 0 <= start < batches_per_epoch:
+            raise InputError(f"start must be a batch of the epoch, 0..{batches_per_epoch - 1}; got {start}")
         self.examples = GeneratedExamples(params, seed, transform, direct)
         self.batch_size, self.batches_per_epoch, self.epoch = batch_size, batches_per_epoch, 0
+        self.start = start
 
     def set_epoch(self, epoch: int) -> None:
         if epoch < 0:
@@ -85,11 +90,11 @@ class StreamDataset(IterableDataset):
         self.epoch = epoch
 
     def __len__(self) -> int:
-        return self.batches_per_epoch
+        return self.batches_per_epoch - self.start
 
     def __iter__(self):
         info = get_worker_info()
         worker, workers = (info.id, info.num_workers) if info else (0, 1)
-        for b in range(worker, self.batches_per_epoch, workers):
+        for b in range(self.start + worker, self.batches_per_epoch, workers):
             indices = stream_indices(b, self.batch_size, self.batches_per_epoch, self.epoch)
             yield to_tensors(self.examples.batch(indices))

@@ -8,6 +8,7 @@ import torch
 from loader_stores import COUNT, make_store
 from torch.utils.data import DataLoader
 
+from odms_data.errors import InputError
 from odms_data.loaders import Transform
 from odms_data.loaders.torch_loader import StoreDataset, StreamDataset
 from odms_data.simulate.params import GeneratorParams
@@ -66,3 +67,14 @@ def test_stream_dataset_workers_and_epochs():
     assert _indices(two_workers(ds, batch_size=None)) == list(range(32, 64))
     again = StreamDataset(8, 4, params=GeneratorParams(n_obs=6), seed=3)
     assert torch.equal(next(iter(again))["masks"], two[0]["masks"])
+
+
+def test_stream_dataset_resumes_at_a_batch():
+    whole = list(DataLoader(StreamDataset(4, 5, seed=3), batch_size=None))
+    rest = StreamDataset(4, 5, seed=3, start=2)
+    assert len(rest) == 3
+    later = list(two_workers(rest, batch_size=None))
+    assert _indices(later) == list(range(8, 20))  # batches 2, 3, 4 in order, across 2 workers
+    assert all(torch.equal(x[k], y[k]) for x, y in zip(whole[2:], later, strict=True) for k in x)
+    with pytest.raises(InputError, match="start must be a batch of the epoch, 0..4; got 5"):
+        StreamDataset(4, 5, start=5)
