@@ -27,6 +27,7 @@ from .run_folder import BEST, LAST, RunFolder, TrainConfig, replace_atomically
 from .variants import Variant, variant
 
 EVAL_BATCH = 256  # examples a forward pass in evaluation
+Batch = dict[str, torch.Tensor]  # a loader batch: network inputs and labels by name
 
 
 def pick_device(name: str | None) -> torch.device:
@@ -53,9 +54,6 @@ def to_device(batch: Batch, device: torch.device) -> Batch:
     return {k: t.to(device, non_blocking=True) for k, t in batch.items()}
 
 
-Batch = dict[str, torch.Tensor]
-
-
 def store_batches(path: str, config: TrainConfig, workers: int, pin: bool) -> Iterable[Batch]:
     """The store's examples as network inputs, in row order, EVAL_BATCH at a time."""
     dataset = StoreDataset(path, odn.transform(config.n_obs, config.radial))
@@ -79,7 +77,11 @@ def load_trained(folder: RunFolder, which: str, device: torch.device) -> tuple[O
                          "(a run writes one at each validation)")
     saved = read_checkpoint(path, device)
     model = odn.build(variant(config.model), config.n_obs, config.radial).to(device)
-    model.load_state_dict(saved["model"])
+    try:
+        model.load_state_dict(saved["model"])
+    except (KeyError, RuntimeError):
+        raise InputError(f"{path}: its weights do not fit the run's network ({config.model}, "
+                         f"n_obs {config.n_obs}, radial {config.radial}); was config.json edited?") from None
     return model.eval(), config, int(saved["iteration"])
 
 

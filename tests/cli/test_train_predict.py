@@ -132,6 +132,9 @@ def test_bad_input(tmp_path, val_store):
     _fails([*predict, str(run), "-o", str(preds)], "p.csv: exists")
     assert preds.read_text() == "mine"
     _fails([*predict, str(tmp_path / "notes"), "-o", str(other)], "not a training run")
+    config = run / "config.json"
+    config.write_text(config.read_text().replace('"radial": false', '"radial": true'))
+    _fails([*predict, str(run), "-o", str(other)], "best.pt: its weights do not fit", "radial True")
     (run / "best.pt").write_bytes(b"not a checkpoint")
     _fails([*predict, str(run), "-o", str(other)], "best.pt: not a readable")
     assert not other.exists()
