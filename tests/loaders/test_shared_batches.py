@@ -18,8 +18,9 @@ SHM = Path("/dev/shm")
 
 
 def shm_names() -> set[str]:
-    """Names of the POSIX shared memory blocks (Linux keeps them in /dev/shm)."""
-    return {p.name for p in SHM.iterdir()}
+    """Names of the POSIX shared memory blocks (Linux keeps them in /dev/shm, beside the named
+    semaphores of any process's multiprocessing, which are not blocks)."""
+    return {p.name for p in SHM.iterdir() if not p.name.startswith("sem.")}
 
 
 def make(lent: str | None, n: int) -> tuple[str, dict]:
