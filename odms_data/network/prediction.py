@@ -60,9 +60,11 @@ def store_batches(path: str, config: TrainConfig, workers: int, pin: bool) -> It
     return DataLoader(dataset, batch_size=EVAL_BATCH, num_workers=workers, pin_memory=pin)
 
 
-def read_checkpoint(path: Path, device: torch.device) -> dict[str, Any]:
+def read_checkpoint(path: Path) -> dict[str, Any]:
+    """A checkpoint's content, on the CPU (the random states must be there; load_state_dict moves
+    weights and Adam's state to their module's device)."""
     try:
-        return torch.load(path, map_location=device, weights_only=True)
+        return torch.load(path, map_location="cpu", weights_only=True)
     except Exception as e:  # a truncated or foreign file: torch raises many kinds
         raise InputError(f"{path}: not a readable checkpoint ({type(e).__name__}: {e})") from None
 
@@ -75,7 +77,7 @@ def load_trained(folder: RunFolder, which: str, device: torch.device) -> tuple[O
     if not path.is_file():
         raise InputError(f"{folder.path}: has no {which} checkpoint yet ({path.name}); train it first "
                          "(a run writes one at each validation)")
-    saved = read_checkpoint(path, device)
+    saved = read_checkpoint(path)
     model = odn.build(variant(config.model), config.n_obs, config.radial).to(device)
     try:
         model.load_state_dict(saved["model"])

@@ -118,7 +118,7 @@ def train(
     Returns the final status; a run that is already complete returns at once."""
     folder, v, dev = RunFolder(path), variant(config.model), pick_device(device)
     status = Status(0, config.iterations, config.batch_size, 0, 0.0, str(dev))
-    saved = read_checkpoint(folder.file(LAST), dev) if folder.check(config, overwrite) else {}
+    saved = read_checkpoint(folder.file(LAST)) if folder.check(config, overwrite) else {}
     if saved:
         status.iteration = status.started_at = status.checkpoint = int(saved["iteration"])
         status.best, status.best_iteration = saved["best"], saved["best_iteration"]
