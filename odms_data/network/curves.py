@@ -27,6 +27,9 @@ def draw(folder: RunFolder) -> Path | None:
     rows = read_curves(folder.file(CURVES))
     config = folder.config()
     sets = list(dict.fromkeys(r["set"] for r in rows))
+    stores = [name for name in sets if name not in (TRAIN, VAL)]
+    if len(stores) == 1:  # the mean is that store's own curve
+        sets.remove(stores[0])
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
     for ax, column, title in zip(axes, ("loss", "percent_error"), ("L1 loss", "mean percent error of d1"),
                                  strict=True):
@@ -39,8 +42,8 @@ def draw(folder: RunFolder) -> Path | None:
                 ax.plot(its[k - 1:], _moving_mean(ys, k), color="0.3",
                         label=f"training batches ({k}-batch mean)")
             else:
-                ax.plot(its, ys, linewidth=2 if name == VAL else 1,
-                        label="validation (mean of the stores)" if name == VAL else name)
+                mean = "validation: " + (stores[0] if len(stores) == 1 else "mean of the stores")
+                ax.plot(its, ys, linewidth=2 if name == VAL else 1, label=mean if name == VAL else name)
         ax.set_yscale("log")
         ax.set_xlabel("iteration")
         ax.set_title(title)

@@ -76,8 +76,9 @@ class Validation:
         for path in config.val:
             with open_store(path) as s:
                 split, labelled = s.attrs.split, int(np.isfinite(s.d1).sum())
-            if split in self.stores:
-                raise InputError(f"{path}: a second validation store of split {split}; give each split once")
+            if split in self.stores or split in (TRAIN, VAL):
+                raise InputError(f"{path}: a validation store of split '{split}' again or of a name the "
+                                 "curves use (train, val); give each split once, none named train or val")
             if not labelled:
                 raise InputError(f"{path}: no labelled example (every d1 is NaN); it cannot validate")
             batches = store_batches(path, config, workers, pin=device.type == "cuda")

@@ -118,6 +118,9 @@ def test_bad_input(tmp_path, val_store):
     _fails([*base, "--val", str(val_store), "--n-obs", "11"], "tiny-val.zarr", "n_obs=11", "10 frames")
     _fails([*base, "--val", str(val_store), "--device", "gpu0"], "'gpu0' is not a device name")
     _fails([*base, "--val", str(val_store), "--seed", "20200002"], "20200002", "sim-test")
+    named_val = tmp_path / "v.zarr"
+    generate(str(named_val), 2, SMALL, seed=1, split="val", workers=1)
+    _fails([*base, "--val", str(named_val)], "v.zarr", "none named train or val")
     assert not run.exists()  # nothing written before the input was found good
     (tmp_path / "notes").mkdir()
     (tmp_path / "notes" / "mine.txt").write_text("keep")
