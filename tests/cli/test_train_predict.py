@@ -79,7 +79,9 @@ def test_an_interrupted_run_resumes_where_it_stopped(tmp_path, val_store):
 
     run = tmp_path / "run"
     p = subprocess.Popen([sys.executable, "-m", "odms_data.cli", *_train(run, val_store)],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # as in a terminal,
+    # also when this test runs in the background, where a shell has SIGINT ignored
     deadline = time.monotonic() + 120
     while not (run / "last.pt").exists() and p.poll() is None and time.monotonic() < deadline:
         time.sleep(0.01)
