@@ -7,7 +7,8 @@ and with 1 and 2 worker processes, and a store read through each loader.
 straight at 112x112 (GeneratedExamples(direct=True)). The baseline, measured in the same run, is
 the naive streaming path: draw each mask at 480x640 with render.render_masks and shrink it to
 112x112. Timing starts when the first batch arrives, so worker start-up is left out; the first
-batch is not counted.
+batch is not counted. grain's rows count from the start instead, all batches: in-process, grain
+computes batches ahead in a pool of threads, so they are ready long before they are asked for.
 """
 
 from __future__ import annotations
@@ -37,13 +38,17 @@ def cpu_seconds() -> float:
     return me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
 
 
-def rate(batches: Iterable, batch_size: int) -> tuple[float, float]:
-    """Examples per wall second after the first batch, and per CPU second over the whole run
-    (start-up included): on a shared machine the second says what the cores could do."""
+def rate(batches: Iterable, batch_size: int, from_start: bool = False) -> tuple[float, float]:
+    """Examples per wall second after the first batch (`from_start`: from the start, all batches),
+    and per CPU second over the whole run (start-up included): on a shared machine the second says
+    what the cores could do."""
     c0 = cpu_seconds()
+    t0 = time.perf_counter()
     it = iter(batches)
     next(it)
-    t0, count = time.perf_counter(), 0
+    count = batch_size if from_start else 0
+    if not from_start:
+        t0 = time.perf_counter()
     for _ in it:
         count += batch_size
     wall = time.perf_counter() - t0
@@ -60,6 +65,24 @@ def naive(batch_size: int, n_batches: int):
             spec = sample_example(PARAMS, 0, i)
             out.append(t(render_masks(spec, PARAMS), spec.z, spec.z[0]))
         yield collate(out)
+
+
+def grain_stream(batch_size: int, n_batches: int, workers: int):
+    import grain
+
+    from odms_data.loaders.grain_loader import stream_dataset
+
+    ds = stream_dataset(batch_size, n_batches, params=PARAMS).to_iter_dataset()
+    return ds.mp_prefetch(grain.MultiprocessingOptions(num_workers=workers))
+
+
+def grain_store(store: str, batch_size: int, workers: int):
+    import grain
+
+    from odms_data.loaders.grain_loader import StoreSource
+
+    ds = grain.MapDataset.source(StoreSource(store)).batch(batch_size).to_iter_dataset()
+    return ds.mp_prefetch(grain.MultiprocessingOptions(num_workers=workers))
 
 
 def main() -> None:
@@ -89,6 +112,10 @@ def main() -> None:
             record(f"numpy stream {label}, workers={workers}", rate(batches, b))
     has_torch = importlib.util.find_spec("torch") is not None
     has_tf = importlib.util.find_spec("tensorflow") is not None
+    has_grain = importlib.util.find_spec("grain") is not None
+    if has_grain:
+        for workers in (0, 2):
+            record(f"grain stream 112x112, workers={workers}", rate(grain_stream(B, nb, workers), B, True))
     if has_torch:
         from torch.utils.data import DataLoader
 
@@ -111,6 +138,8 @@ def main() -> None:
             for workers in (0, 2):
                 record(f"torch store -> 112x112, workers={workers}",
                        rate(DataLoader(StoreDataset(store), batch_size=B, num_workers=workers), B))
+        if has_grain:
+            record("grain store -> 112x112, workers=2", rate(grain_store(store, B, 2), B, True))
         if has_tf:
             from odms_data.loaders.tf_loader import from_store
 

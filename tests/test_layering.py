@@ -23,7 +23,7 @@ LAYERS = {
     "cli": 6,
 }
 HEAVY = ("cv2", "pandas", "zarr", "h5py", "jsonschema", "matplotlib", "PIL", "torch", "tensorflow", "jax",
-         "dask")
+         "grain", "dask")
 
 
 def _imports(path: Path, text: str | None = None) -> list[tuple[int, str]]:

@@ -7,6 +7,7 @@ Set ODMS_DEBUG=1 to see the traceback of an unexpected error.
 
 from __future__ import annotations
 
+import difflib
 import os
 from importlib import import_module
 
@@ -26,6 +27,7 @@ COMMANDS = {  # command name -> (module of this package, attribute): imported on
     "validate": ("store_commands", "validate"),
     "info": ("store_commands", "info"),
     "convert": ("store_commands", "convert"),
+    "export": ("export_command", "export"),
     "show": ("store_commands", "show"),
     "score": ("score_commands", "score"),
     "baseline": ("score_commands", "baseline"),
@@ -38,6 +40,14 @@ COMMANDS = {  # command name -> (module of this package, attribute): imported on
 class OdmsGroup(click.Group):
     def list_commands(self, ctx: click.Context) -> list[str]:
         return sorted(COMMANDS)
+
+    def resolve_command(self, ctx: click.Context, args: list[str]):
+        name = args[0] if args else ""
+        if name and not name.startswith("-") and name not in COMMANDS:
+            close = difflib.get_close_matches(name, COMMANDS, n=1)
+            if close:
+                ctx.fail(f"No such command '{name}'. Did you mean '{close[0]}'?")
+        return super().resolve_command(ctx, args)
 
     def get_command(self, ctx: click.Context, name: str) -> click.Command | None:
         if name not in COMMANDS:
@@ -76,4 +86,16 @@ def main() -> None:
     Example:
       odms-data generate --split sim-val -o sim-val.zarr
       odms-data info sim-val.zarr
+
+    \b
+    Environment:
+      ODMS_DATA    folders of ground-truth stores for score and baseline (':'-separated;
+                   default ~/.cache/odms-data)
+      ODMS_DEBUG   set to 1 to see the traceback of an unexpected error
+      ODMS_SHARED  the shared/ folder holding data/odms-v1.tar.gz, for the tests that
+                   need the official data (default: ../shared beside the project)
+
+    \b
+    Shell completion (bash; zsh and fish alike, with zsh_source / fish_source):
+      eval "$(_ODMS_DATA_COMPLETE=bash_source odms-data)"
     """

@@ -48,13 +48,14 @@ def _parse_param(values: tuple[str, ...]) -> dict:
               default=DEFAULT_EXAMPLES_PER_SHARD, show_default=True,
               help="Examples per shard (one task each); does not change the content.")
 @click.option("--overwrite", is_flag=True, help="Replace an existing store.")
+@click.option("--json", "as_json", is_flag=True, help="Print what was written as JSON.")
 @click.option("--scheduler", metavar="ADDRESS", default=None,
               help="Run the shards on the Dask cluster of this scheduler (e.g. tcp://host:8786) "
                    "instead of local --workers; needs the dask extra. The output must be a path "
                    "every worker sees, or a URL such as s3://bucket/train.zarr.")
 @click.pass_context
 def generate(ctx, split_name, count, preset, seed, n_obs, params, store_split, output, fmt, workers,
-             examples_per_shard, overwrite, scheduler):
+             examples_per_shard, overwrite, as_json, scheduler):
     """Generate simulated ODMS examples into a store.
 
     \b
@@ -96,7 +97,13 @@ def generate(ctx, split_name, count, preset, seed, n_obs, params, store_split, o
             workers=workers, examples_per_shard=examples_per_shard, overwrite=overwrite,
             progress=update, scheduler=scheduler,
         )
-    click.echo(f"wrote {output}: {count} examples, digest {attrs.digest}")
     if manifest is not None:
         check_against_manifest(attrs, manifest, output)
+    if as_json:
+        click.echo(json.dumps({"output": output, "split": store_split, "examples": count, "preset": preset,
+                               "seed": seed or 0, "digest": attrs.digest,
+                               "manifest": f"splits/{split_name}.json" if manifest else None}, indent=2))
+        return
+    click.echo(f"wrote {output}: {count} examples, digest {attrs.digest}")
+    if manifest is not None:
         click.echo(f"digest matches splits/{split_name}.json")

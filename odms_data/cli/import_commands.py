@@ -53,12 +53,16 @@ class _Bars:
         self.close()
 
 
+def _skipped(oddities: list[dict[str, str]]) -> list[str]:
+    return [o["detail"] for o in oddities if o["kind"] == "skipped"]
+
+
 def _report_skipped(oddities: list[dict[str, str]], what: str) -> None:
-    skipped = [o for o in oddities if o["kind"] == "skipped"]
+    skipped = _skipped(oddities)
     if skipped:
         click.echo(f"skipped {len(skipped)} {what}:")
-        for o in skipped:
-            click.echo(f"  {o['detail']}")
+        for detail in skipped:
+            click.echo(f"  {detail}")
 
 
 def _counts(option: str, text: str | None) -> list[int] | None:
@@ -99,7 +103,8 @@ def import_group() -> None:
               help="Accept content that differs from splits/<split>.json (stored as <split>-modified).")
 @click.option("--workers", type=click.IntRange(min=1), default=os.cpu_count() or 1,
               show_default="all cores", help="Decoding processes.")
-def odms(data_dir, out_dir, splits, fmt, overwrite, skip_bad, no_verify, workers):
+@click.option("--json", "as_json", is_flag=True, help="Print what was written as JSON.")
+def odms(data_dir, out_dir, splits, fmt, overwrite, skip_bad, no_verify, workers, as_json):
     """Import the official ODMS release into one verified store per split.
 
     DATA_DIR is the release's data/ folder (val/ and test/ inside), as in the authors'
@@ -117,6 +122,14 @@ def odms(data_dir, out_dir, splits, fmt, overwrite, skip_bad, no_verify, workers
             progress=bars, skip_bad=skip_bad, verify=not no_verify, workers=workers,
         )
     suffix = ".zarr" if fmt == "zarr" else ".h5"
+    if as_json:
+        click.echo(json.dumps({"stores": [
+            {"split": attrs.split, "path": str(Path(out_dir) / f"{name}{suffix}"),
+             "examples": attrs.counts["examples"], "frames": attrs.counts["frames"],
+             "oddities": len(attrs.oddities), "matches_manifest": attrs.split == name,
+             "digest": attrs.digest, "skipped": _skipped(attrs.oddities)}
+            for name, attrs in result.items()]}, indent=2))
+        return
     for name, attrs in result.items():
         path = Path(out_dir) / f"{name}{suffix}"
         verdict = (f"matches splits/{name}.json" if attrs.split == name
@@ -149,8 +162,9 @@ def odms(data_dir, out_dir, splits, fmt, overwrite, skip_bad, no_verify, workers
 @click.option("--skip-bad", is_flag=True, help="Leave out bad rows and files, report what was skipped.")
 @click.option("--workers", type=click.IntRange(min=1), default=os.cpu_count() or 1,
               show_default="all cores", help="Decoding processes.")
+@click.option("--json", "as_json", is_flag=True, help="Print what was written as JSON.")
 def recording(mask_dir, positions, output, windows, n_obs, threshold, d1, name, fmt, overwrite,
-              skip_bad, workers):
+              skip_bad, workers, as_json):
     """Import your own recording: a folder of masks plus the camera position of each.
 
     Masks are PNG or JPEG files of any segmentation method; unlabelled recordings (no depth
@@ -172,6 +186,11 @@ def recording(mask_dir, positions, output, windows, n_obs, threshold, d1, name, 
             d1=d1, name=name, fmt=fmt, overwrite=overwrite, skip_bad=skip_bad, workers=workers,
             progress=lambda done, total: bars(str(mask_dir), done, total),
         )
+    if as_json:
+        click.echo(json.dumps({"output": str(path), "examples": attrs.counts["examples"],
+                               "labelled": attrs.counts["labelled"], "frames": attrs.counts["frames"],
+                               "digest": attrs.digest, "skipped": _skipped(attrs.oddities)}, indent=2))
+        return
     click.echo(f"wrote {path}: {attrs.counts['examples']} example(s) ({attrs.counts['labelled']} labelled), "
                f"{attrs.counts['frames']} frames, digest {attrs.digest}")
     _report_skipped(attrs.oddities, "row(s) or file(s)")

@@ -1,28 +1,78 @@
-"""Progress bars on stderr that appear only once work is flowing (not before an early error)."""
+"""Progress on stderr that appears only once work is flowing (not before an early error).
+
+On a terminal: a bar with the rate and ETA. Elsewhere (a log file, CI, a pipe), where a bar would
+print nothing useful: one line when work starts, one every PERIOD seconds with the count, elapsed
+time and ETA, and one when it is done.
+"""
 
 from __future__ import annotations
 
 import sys
+import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from typing import Any
 
 import click
+
+PERIOD = 10.0  # seconds between lines when stderr is not a terminal
+
+
+def _duration(seconds: float) -> str:
+    s = int(round(seconds))
+    return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"
+
+
+class _Lines:
+    """Periodic one-line updates: `label: done/total (pct), elapsed, ETA`."""
+
+    def __init__(self, total: int, label: str) -> None:
+        self.total, self.label, self.done = total, label, 0
+        self.start = time.monotonic()
+        self.last = -PERIOD
+
+    def line(self) -> str:
+        elapsed = time.monotonic() - self.start
+        pct = 100 * self.done / self.total if self.total else 100.0
+        text = f"{self.label}: {self.done}/{self.total} ({pct:.0f}%), {_duration(elapsed)} elapsed"
+        if 0 < self.done < self.total:
+            text += f", about {_duration(elapsed * (self.total - self.done) / self.done)} left"
+        return text
+
+    def update(self, n: int) -> None:
+        self.done += n
+        now = time.monotonic()
+        if now - self.last >= PERIOD and self.done < self.total:
+            click.echo(self.line(), err=True)
+            self.last = now
+
+    def close(self) -> None:
+        click.echo(self.line(), err=True)
 
 
 @contextmanager
 def progress(total: int, label: str) -> Iterator[Callable[[int], None]]:
-    """Yields `update(n)`; the bar is drawn from the first update on."""
-    bar = None
+    """Yields `update(n)`; nothing is shown before the first update, and no closing line after an
+    error (its one line is the last thing on stderr)."""
+    shown: Any = None  # click's bar or _Lines
 
     def update(n: int) -> None:
-        nonlocal bar
-        if bar is None:
-            bar = click.progressbar(length=total, label=label, file=sys.stderr)
-            bar.__enter__()
-        bar.update(n)
+        nonlocal shown
+        if shown is None:
+            if sys.stderr.isatty():
+                shown = click.progressbar(length=total, label=label, file=sys.stderr, show_eta=True)
+                shown.__enter__()
+            else:
+                shown = _Lines(total, label)
+        shown.update(n)
 
     try:
         yield update
-    finally:
-        if bar is not None:
-            bar.__exit__(None, None, None)
+    except BaseException:
+        if shown is not None and not isinstance(shown, _Lines):
+            shown.__exit__(None, None, None)
+        raise
+    if isinstance(shown, _Lines):
+        shown.close()
+    elif shown is not None:
+        shown.__exit__(None, None, None)

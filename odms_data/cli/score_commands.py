@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
+import difflib
 import json
-import sys
 from pathlib import Path
 
 import click
@@ -14,6 +14,7 @@ from ..evaluation.ground_truth import DEFAULT_DATA, ENV_VAR, data_locations, fin
 from ..evaluation.vosde import DEFAULT_N_OBS
 from ..evaluation.vosde import vosde as run_vosde
 from ..store.reader import open_store
+from .progress import progress
 
 DATA_HELP = (f"Folder of ground-truth stores, or one store (repeatable). Default: ${ENV_VAR} "
              f"(folders separated by ':'), else {DEFAULT_DATA}.")
@@ -91,7 +92,8 @@ def baseline():
 @click.option("--n-obs", type=click.IntRange(min=2), default=DEFAULT_N_OBS, show_default=True,
               help="Observations used per example (evenly spaced when an example has more).")
 @click.option("-o", "--output", type=click.Path(), required=True, help="Predictions CSV to write.")
-def vosde(stores, data, n_obs, output):
+@click.option("--json", "as_json", is_flag=True, help="Print the per-store counts as JSON.")
+def vosde(stores, data, n_obs, output, as_json):
     """VOS-DE (WACV 2020), the ODMS baseline, from the stored mask statistics.
 
     STORES are split names (looked up in the data folders) or store paths; none means every
@@ -114,23 +116,31 @@ def vosde(stores, data, n_obs, output):
             continue
         found = found if found is not None else find_stores(data_locations(data))
         if s not in found:
-            raise InputError(f"{s}: neither a store path nor a split in the data folders "
+            close = difflib.get_close_matches(s, list(found), n=1)
+            hint = f"; did you mean {close[0]}?" if close else ""
+            raise InputError(f"{s}: neither a store path nor a split in the data folders{hint} "
                              f"(they hold: {', '.join(sorted(found))})")
         paths.append(found[s])
     if not stores:
         found = find_stores(data_locations(data))
         paths = [found[s] for s in sorted(found, key=split_order)]
-    rows, lines = [], []
-    with click.progressbar(paths, label="VOS-DE", file=sys.stderr) as bar:
-        for p in bar:
+    rows, counts = [], []
+    with progress(len(paths), "VOS-DE (stores)") as update:
+        for p in paths:
             with open_store(str(p)) as s:
                 r = run_vosde(s, n_obs)
+            update(1)
             rows += r.rows()
-            lines.append(f"{r.split}: {len(r.d1)} examples, {int(r.unsolvable.sum())} unsolvable "
-                         f"(predicted 0), {int(r.empty_masks.sum())} with an empty mask among the used "
-                         "observations")
+            counts.append({"split": r.split, "examples": len(r.d1), "unsolvable": int(r.unsolvable.sum()),
+                           "empty_masks": int(r.empty_masks.sum())})
     write_predictions(output, rows)
-    click.echo("\n".join(lines))
+    if as_json:
+        click.echo(json.dumps({"output": output, "n_obs": n_obs, "predictions": len(rows), "splits": counts},
+                              indent=2))
+        return
+    for c in counts:
+        click.echo(f"{c['split']}: {c['examples']} examples, {c['unsolvable']} unsolvable (predicted 0), "
+                   f"{c['empty_masks']} with an empty mask among the used observations")
     click.echo(f"wrote {output}: {len(rows)} predictions (VOS-DE, n = {n_obs})")
 
 
@@ -141,7 +151,8 @@ def vosde(stores, data, n_obs, output):
               help="Mean percent error or mean absolute error (cm; driving in m).")
 @click.option("--dir", "folder", type=click.Path(file_okay=False), default=None,
               help="Folder of entries (default: the leaderboard/ shipped with odms-data).")
-def leaderboard(family, metric, folder):
+@click.option("--json", "as_json", is_flag=True, help="Print the ranked entries as JSON (all metrics).")
+def leaderboard(family, metric, folder, as_json):
     """Print the leaderboard as markdown, sorted by All (lowest error first).
 
     \b
@@ -149,6 +160,14 @@ def leaderboard(family, metric, folder):
       odms-data leaderboard
       odms-data leaderboard --family val --metric abs
     """
-    from ..evaluation.leaderboard import load_entries, render_markdown
+    from ..evaluation.leaderboard import family_all, load_entries, ranked, render_markdown
 
-    click.echo(render_markdown(load_entries(folder), family, metric), nl=False)
+    entries = load_entries(folder)
+    if as_json:
+        keys = ("name", "n_obs", "training_data", "radial_input", "figures", "link", "citation")
+        click.echo(json.dumps([
+            {"rank": rank, **{k: e.get(k) for k in keys}, "all": family_all(e, family),
+             "results": e["results"][family]}
+            for rank, e in enumerate(ranked(entries, family), 1)], indent=2))
+        return
+    click.echo(render_markdown(entries, family, metric), nl=False)

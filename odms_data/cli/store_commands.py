@@ -23,9 +23,16 @@ def validate(store, as_json):
     Example:
       odms-data validate sim-val.zarr
     """
+    from ..errors import OdmsError
     from ..store.validate import validate as validate_store
 
-    report = validate_store(store)
+    try:
+        with open_store(store) as s:
+            frames = s.n_frames
+    except OdmsError:
+        frames = 0  # the report says what is wrong; no masks will be checked
+    with progress(frames, f"validating {store}") as update:
+        report = validate_store(store, update)
     if as_json:
         click.echo(json.dumps({"path": report.path, "ok": report.ok, "problems": report.problems,
                                "warnings": report.warnings, "digest": report.digest}, indent=2))
@@ -58,6 +65,7 @@ def info(store, as_json):
             "observations": {"min": int(n_obs.min()), "max": int(n_obs.max())},
             "d1": {"min": float(d1.min()), "max": float(d1.max())} if len(d1) else None,
             "empty_masks": int((s.area == 0).sum()),
+            "example_ids": {"first": s.example_ids[0], "last": s.example_ids[-1]} if len(s) else None,
         }
     if as_json:
         click.echo(json.dumps(summary, indent=2))
@@ -72,10 +80,12 @@ def info(store, as_json):
         "d1 (m)      "
         + (f"{summary['d1']['min']:.4f}..{summary['d1']['max']:.4f}" if summary["d1"] else "-"),
         f"empty masks {summary['empty_masks']}",
+        "example ids " + (f"{ids['first']} .. {ids['last']} (e.g. odms-data show {store} {ids['first']} "
+                          "-o sheet.png)" if (ids := summary["example_ids"]) else "-"),
         f"digest      {a.digest}",
     ]
     if gen:
-        lines.append(f"generator   preset {gen['preset']}, seed {gen['seed']}")
+        lines.append(f"generator   version {a.generator_version}, preset {gen['preset']}, seed {gen['seed']}")
     if a.source:
         lines.append(f"source      {a.source}")
     if a.oddities:
@@ -89,7 +99,8 @@ def info(store, as_json):
 @click.option("--format", "fmt", type=click.Choice(["zarr", "hdf5"]), default=None,
               help="Backend of DST (default: from its suffix, .h5/.hdf5 = hdf5, else zarr).")
 @click.option("--overwrite", is_flag=True, help="Replace DST if it exists.")
-def convert(src, dst, fmt, overwrite):
+@click.option("--json", "as_json", is_flag=True, help="Print what was written as JSON.")
+def convert(src, dst, fmt, overwrite, as_json):
     """Copy a store to the other backend, losslessly (the content digest is checked).
 
     \b
@@ -102,6 +113,9 @@ def convert(src, dst, fmt, overwrite):
         total = s.n_frames
     with progress(total, f"converting to {dst}") as update:
         digest = convert_store(src, dst, fmt, overwrite=overwrite, progress=update)
+    if as_json:
+        click.echo(json.dumps({"source": src, "output": dst, "digest": digest}, indent=2))
+        return
     click.echo(f"wrote {dst}: digest {digest}")
 
 

@@ -9,6 +9,9 @@ import numpy as np
 from ..errors import InputError
 from .scoring import ScoreReport
 
+LINEAR_BELOW = 10  # percent: the y axis is symlog, linear up to here so that 0 shows
+TICKS = [0, 2, 5] + [m * 10**k for k in range(1, 7) for m in (1, 2, 5)]  # labelled percent errors
+
 
 def pyplot():
     """matplotlib.pyplot on the Agg backend; InputError saying how to install it when missing."""
@@ -27,6 +30,8 @@ def pyplot():
 def plot_errors(report: ScoreReport, path: str) -> None:
     """Scatter of each example's percent error against its true depth d1, with the binned median."""
     plt = pyplot()
+    from matplotlib import ticker
+
     splits = [s for s in report.scores if s.split in report.errors]
     cols = min(4, len(splits))
     rows = math.ceil(len(splits) / cols)
@@ -39,10 +44,12 @@ def plot_errors(report: ScoreReport, path: str) -> None:
         centres = [truth[which == b].mean() for b in range(10) if (which == b).any()]
         medians = [np.median(pe[which == b]) for b in range(10) if (which == b).any()]
         ax.plot(centres, medians, color="black", lw=1.5, label="median (depth deciles)")
-        ax.set_yscale("symlog", linthresh=10)
+        ax.set_yscale("symlog", linthresh=LINEAR_BELOW)
+        ax.yaxis.set_major_locator(ticker.FixedLocator(TICKS))
+        ax.yaxis.set_major_formatter(ticker.FuncFormatter(lambda v, _: f"{v:g}"))
         ax.set_title(f"{s.split}: mean {s.mean_percent_error:.1f}%  (n={s.n})", fontsize=9)
         ax.set_xlabel("true depth d1 (m)")
-        ax.set_ylabel("percent error")
+        ax.set_ylabel(f"percent error (linear to {LINEAR_BELOW}, log above)")
         ax.grid(alpha=0.3)
     for ax in list(axes.flat)[len(splits):]:
         ax.set_visible(False)

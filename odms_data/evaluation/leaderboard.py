@@ -74,14 +74,20 @@ def _cell(x: float | None) -> str:
     return "–" if x is None else f"{x:.1f}"
 
 
-def render_markdown(entries: list[dict], family: str = "test", metric: str = "percent") -> str:
-    """A markdown table sorted by All (lowest first; entries without All last)."""
+def ranked(entries: list[dict], family: str = "test") -> list[dict]:
+    """The entries with results on `family`, sorted by All (lowest first; entries without All last)."""
     if family not in FAMILIES:
         raise InputError(f"family must be one of {', '.join(FAMILIES)}, got {family!r}")
 
     def key(e):
         a = family_all(e, family)
         return (a is None, a if a is not None else 0.0, e["name"])
+
+    return sorted((e for e in entries if e["results"].get(family)), key=key)
+
+
+def render_markdown(entries: list[dict], family: str = "test", metric: str = "percent") -> str:
+    """A markdown table sorted by All (lowest first; entries without All last)."""
 
     if metric == "percent":
         heads = [d.capitalize() for d in OFFICIAL_DOMAINS] + ["All"]
@@ -94,12 +100,8 @@ def render_markdown(entries: list[dict], family: str = "test", metric: str = "pe
         "| # | Method | n | Training | " + " | ".join(heads) + " | Figures |",
         "|---|---|---|---|" + "---:|" * len(heads) + "---|",
     ]
-    rank = 0
-    for e in sorted(entries, key=key):
-        fam = e["results"].get(family, {})
-        if not fam:
-            continue
-        rank += 1
+    for rank, e in enumerate(ranked(entries, family), 1):
+        fam = e["results"][family]
         if metric == "percent":
             cells = [_cell(fam[d]["percent"]) if d in fam else "–" for d in OFFICIAL_DOMAINS]
             cells.append(_cell(family_all(e, family)))

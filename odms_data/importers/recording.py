@@ -88,7 +88,9 @@ def read_positions(
                 raise InputError(f"{where}: depth {row.depth.strip()} is not a positive distance")
             path = mask_dir / frame
             if not path.is_file():
-                raise InputError(f"{where}: frame '{frame}' not found in {mask_dir}")
+                inner = sorted(mask_dir.glob(f"*/{frame}"))  # MASK_DIR one folder too high?
+                hint = f"; did you mean MASK_DIR {inner[0].parent}?" if inner else ""
+                raise InputError(f"{where}: frame '{frame}' not found in {mask_dir}{hint}")
         except InputError as e:
             if not skip_bad:
                 raise

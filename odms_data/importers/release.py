@@ -122,7 +122,9 @@ def scan_split(
     domain, fold = split.split("-")
     root = data_dir / fold / domain
     if not root.is_dir():
-        hint = " (DATA_DIR is the release's data/ folder, holding val/ and test/)"
+        below = data_dir / "data"
+        hint = (f"; did you mean {below}? (DATA_DIR is the release's data/ folder)" if (below / fold).is_dir()
+                else " (DATA_DIR is the release's data/ folder, holding val/ and test/)")
         raise InputError(f"{root}: no such folder{hint}")
     dirs = sorted((p for p in root.iterdir() if p.is_dir()), key=lambda p: _natural_key(p.name))
     if not dirs:

@@ -1,8 +1,9 @@
 """Loaders of ODMS examples for training: from a store or straight from the generator.
 
 `transforms` makes the paper's network inputs; `sources` gives examples as dicts of NumPy
-arrays; `numpy_loader` batches them with no framework (JAX users); `torch_loader` and
-`tf_loader` wrap them for PyTorch and TensorFlow and are imported only when asked for. See schemas/LOADERS.md.
+arrays; `numpy_loader` batches them with no framework; `grain_loader`, `torch_loader` and
+`tf_loader` wrap them for grain (JAX), PyTorch and TensorFlow and are imported only when asked
+for (named so that none shadows its framework's package). See schemas/LOADERS.md.
 """
 
 from .numpy_loader import Batches, store_batches, stream_batches

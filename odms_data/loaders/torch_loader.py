@@ -1,7 +1,7 @@
 """PyTorch datasets: a map-style one over a store and an iterable one streaming generated batches.
 
     from torch.utils.data import DataLoader
-    from odms_data.loaders.torch import StoreDataset, StreamDataset
+    from odms_data.loaders.torch_loader import StoreDataset, StreamDataset
 
     val = DataLoader(StoreDataset("sim-val.zarr"), batch_size=512, num_workers=2)
     train = StreamDataset(batch_size=512, batches_per_epoch=5000, seed=1)
@@ -13,7 +13,8 @@
 StreamDataset: batch b of epoch e holds generator indices ((e * batches_per_epoch + b) * batch_size
 ...+ batch_size), and worker w of W makes batches b = w, w + W, ...; DataLoader hands them out in
 that round-robin order, so the batch sequence depends only on (params, seed, transform, batch
-size) — not on the number of workers — and no example appears twice in or across epochs.
+size) — not on the number of workers — and no example appears twice in or across epochs. The
+epoch lives in shared memory, so set_epoch also reaches persistent workers.
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ try:
     from torch.utils.data import Dataset, IterableDataset, get_worker_info
 except ImportError as e:  # pragma: no cover - depends on the environment
     raise ImportError(
-        "odms_data.loaders.torch needs PyTorch: pip install 'odms-data[torch]' (see README.md)"
+        "odms_data.loaders.torch_loader needs PyTorch: pip install 'odms-data[torch]' (see README.md)"
     ) from e
 
 
@@ -81,13 +82,19 @@ class StreamDataset(IterableDataset):
         if not 0 <= start < batches_per_epoch:
             raise InputError(f"start must be a batch of the epoch, 0..{batches_per_epoch - 1}; got {start}")
         self.examples = GeneratedExamples(params, seed, transform, direct)
-        self.batch_size, self.batches_per_epoch, self.epoch = batch_size, batches_per_epoch, 0
-        self.start = start
+        self.batch_size, self.batches_per_epoch, self.start = batch_size, batches_per_epoch, start
+        # In shared memory, so that set_epoch reaches workers started earlier (persistent_workers=True):
+        # DataLoader hands a worker the dataset once, and pickles this tensor as a handle, not a copy.
+        self._epoch = torch.zeros((), dtype=torch.int64).share_memory_()
+
+    @property
+    def epoch(self) -> int:
+        return int(self._epoch)
 
     def set_epoch(self, epoch: int) -> None:
         if epoch < 0:
             raise InputError(f"epoch must be >= 0, got {epoch}")
-        self.epoch = epoch
+        self._epoch.fill_(epoch)
 
     def __len__(self) -> int:
         return self.batches_per_epoch - self.start
@@ -95,6 +102,7 @@ class StreamDataset(IterableDataset):
     def __iter__(self):
         info = get_worker_info()
         worker, workers = (info.id, info.num_workers) if info else (0, 1)
+        epoch = self.epoch  # read when the epoch starts: iter(loader) comes after set_epoch
         for b in range(self.start + worker, self.batches_per_epoch, workers):
-            indices = stream_indices(b, self.batch_size, self.batches_per_epoch, self.epoch)
+            indices = stream_indices(b, self.batch_size, self.batches_per_epoch, epoch)
             yield to_tensors(self.examples.batch(indices))

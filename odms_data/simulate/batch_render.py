@@ -9,9 +9,10 @@ the slow way (render.py, shrink.py).
 
 The per-frame arithmetic of `render.render_frame` is done once for all frames of all examples,
 in the same order of operations (so the same floats), and frames are stacked as rows of one
-image so that a single cv2.fillPoly call draws them all: no scanline meets two frames' polygons.
-Frames where a shortcut would not hold (a box leaving the image) go through render_frame.
-tests/test_loaders_transforms.py checks equality with the slow way.
+image whose contour pixels (raster.py) are marked at once; each frame's canvas keeps an empty
+border, so its enclosed pixels can be filled on its own or stacked with others. Frames where a
+shortcut would not hold (a box leaving the image) go through render_frame.
+tests/loaders/test_loaders_transforms.py checks equality with the slow way.
 """
 
 from __future__ import annotations
@@ -25,7 +26,8 @@ import numpy as np
 from ..errors import InputError
 from .object_model import ExampleSpec
 from .params import GeneratorParams
-from .render import CROSS, SHIFT, render_frame
+from .raster import contour_pixels, draw_silhouette, fill_enclosed
+from .render import CROSS, render_frame
 from .shrink import periods_of, resize_masks, shrink_into
 
 cv2.setNumThreads(1)
@@ -35,17 +37,27 @@ cv2.setNumThreads(1)
 class _Geometry:
     """Frames of several examples, flattened example-major: F = examples x frames per example."""
 
-    fixed: np.ndarray  # (P, 2) int32 fixed-point vertices relative to each frame's canvas corner
-    starts: np.ndarray  # (F + 1,) each frame's first row in `fixed`
+    poly: np.ndarray  # (P, 2) vertices relative to each frame's canvas corner
+    starts: np.ndarray  # (F + 1,) each frame's first row in `poly`
     lo: np.ndarray  # (F, 2) canvas corner x0, y0 (render_frame's canvas, margin included)
     hi: np.ndarray  # (F, 2) x1, y1, exclusive
     k: np.ndarray  # (F,) perturbation steps
     dilate: np.ndarray  # (F,) whether a perturbation dilates (else erodes)
 
-    def polygons(self, offsets: np.ndarray) -> list[np.ndarray]:
-        """Every frame's vertices, moved by its (x, y) pixel offset (offsets: (F, 2))."""
-        shift = np.repeat((offsets << SHIFT).astype(np.int32), np.diff(self.starts), axis=0)
-        return np.split(self.fixed + shift, self.starts[1:-1])
+    def polygon(self, f: int) -> np.ndarray:
+        return self.poly[self.starts[f] : self.starts[f + 1]]
+
+    def mark(self, image: np.ndarray, frames: np.ndarray, offsets: np.ndarray) -> None:
+        """Mark the contour pixels of `frames` in the C-contiguous `image`, each frame's canvas
+        corner put at its (x, y) offset (offsets: (F, 2); rows of frames not drawn are ignored)."""
+        chosen = np.zeros(len(self.starts) - 1, bool)
+        chosen[frames] = True
+        frames = np.flatnonzero(chosen)
+        vertices = np.repeat(chosen, np.diff(self.starts))
+        starts = np.concatenate([[0], np.cumsum(np.diff(self.starts)[frames])])
+        W = image.shape[1]
+        base = offsets[frames, 1] * W + offsets[frames, 0]
+        image.ravel()[contour_pixels(self.poly[vertices], starts, W, base)] = 1
 
 
 def _geometry(
@@ -70,9 +82,7 @@ def _geometry(
     lo = np.floor(np.minimum.reduceat(poly, starts[:-1], axis=0)).astype(np.int64) - (k + 1)[:, None]
     hi = np.ceil(np.maximum.reduceat(poly, starts[:-1], axis=0)).astype(np.int64) + (k + 2)[:, None]
     poly -= np.repeat(lo, lengths, axis=0)
-    poly *= 1 << SHIFT
-    fixed = np.rint(poly, out=poly).astype(np.int32)
-    return _Geometry(fixed, starts, lo, hi, k, perturb >= 0)
+    return _Geometry(poly, starts, lo, hi, k, perturb >= 0)
 
 
 def _frames(specs: Sequence[ExampleSpec], frames: np.ndarray | None) -> np.ndarray:
@@ -109,8 +119,11 @@ def render_masks(
     inside = (g.k == 0) & (g.lo >= 0).all(axis=1) & (g.hi[:, 0] <= W) & (g.hi[:, 1] <= H)
     if inside.any():  # frame f is rows f * H ... of out seen as one (examples * k * H, W) image
         rows = np.arange(len(inside)) * H
-        polygons = g.polygons(g.lo + np.stack([np.zeros_like(rows), rows], axis=1))
-        cv2.fillPoly(out.reshape(-1, W), [polygons[f] for f in np.flatnonzero(inside)], 1, cv2.LINE_8, SHIFT)
+        stacked = out.reshape(-1, W)
+        g.mark(stacked, np.flatnonzero(inside), g.lo + np.stack([np.zeros_like(rows), rows], axis=1))
+        for f in np.flatnonzero(inside):  # each frame's canvas, which has an empty border
+            (x0, y0), (x1, y1) = g.lo[f], g.hi[f]
+            fill_enclosed(stacked[rows[f] + y0 : rows[f] + y1, x0:x1])
     for f in np.flatnonzero(~inside):
         e, j = divmod(int(f), n)
         render_frame(specs[e], params, int(frames[j]), out[e, j])
@@ -129,8 +142,8 @@ def render_shrunk(
     coverage)` of each example, written into `out` when given.
 
     Each frame's box, widened to whole periods of the INTER_AREA grid, becomes a tile. Tiles of
-    one width are stacked in one image, drawn by one cv2.fillPoly call, shrunk by one cv2.resize
-    call and cut back into their frames. Frames whose box leaves the image go one by one.
+    one width are stacked in one image, drawn and filled at once, shrunk by one cv2.resize call
+    and cut back into their frames. Frames whose box leaves the image go one by one.
     """
     H0, W0 = params.image_size
     h, w = size
@@ -161,13 +174,13 @@ def render_shrunk(
     top = above - np.repeat(above[groups[:-1]], np.diff(groups))
     offsets = np.zeros_like(g.lo)
     offsets[tiled] = g.lo[tiled] - tile_lo[tiled] + np.stack([np.zeros_like(top), top], axis=1)
-    polygons = g.polygons(offsets)
     for a, b in zip(groups[:-1], groups[1:], strict=True):
         tiles, width = tiled[a:b], int(widths[a])
         canvas: np.ndarray = np.zeros((int(top[b - 1] + heights[b - 1]), width), np.uint8)
         # render_frame's canvas lies inside the tile with an empty margin, so drawing and
         # perturbing on the tile gives the same pixels as on the canvas
-        cv2.fillPoly(canvas, [polygons[f] for f in tiles], 1, cv2.LINE_8, SHIFT)
+        g.mark(canvas, tiles, offsets)
+        fill_enclosed(canvas, top[a:b])
         for t in np.flatnonzero(g.k[tiles]) + a:
             band = canvas[top[t] : top[t] + heights[t]]
             op = cv2.dilate if g.dilate[tiled[t]] else cv2.erode
@@ -183,7 +196,7 @@ def render_shrunk(
         (x0, y0), (x1, y1), (X0, Y0), (X1, Y1) = g.lo[f], g.hi[f], tile_lo[f], tile_hi[f]
         (cx0, cy0), (cx1, cy1) = clip_lo[f], clip_hi[f]
         canvas = np.zeros((y1 - y0, x1 - x0), np.uint8)
-        cv2.fillPoly(canvas, [g.fixed[g.starts[f] : g.starts[f + 1]]], 1, cv2.LINE_8, SHIFT)
+        draw_silhouette(canvas, g.polygon(int(f)))
         if g.k[f]:
             canvas = (cv2.dilate if g.dilate[f] else cv2.erode)(canvas, CROSS, iterations=int(g.k[f]))
         crop = np.zeros((Y1 - Y0, X1 - X0), dtype)

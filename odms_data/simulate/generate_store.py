@@ -19,7 +19,7 @@ from ..parallel import ordered_map, spawn_pool
 from ..store.digest import StoreDigest
 from ..store.format import StoreAttrs
 from ..store.writer import Layout, StoreWriter
-from .params import DEFAULT_EXAMPLES_PER_SHARD, GeneratorParams
+from .params import DEFAULT_EXAMPLES_PER_SHARD, GENERATOR_VERSION, GeneratorParams
 from .shards import SOURCE, ShardResult, ShardTask, example_ids, run_shard
 
 Progress = Callable[[int], None]
@@ -104,7 +104,9 @@ def generate(
         attrs = StoreAttrs(
             split=split, domain="generated", image_size=(H, W),
             counts={"examples": count, "frames": count * n, "labelled": count},
-            generator={"preset": preset, "params": params.to_json(), "seed": seed},
+            generator={
+                "version": GENERATOR_VERSION, "preset": preset, "params": params.to_json(), "seed": seed,
+            },
             digest=digest.hexdigest(),
         )
         w.commit(attrs)

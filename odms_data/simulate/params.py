@@ -9,6 +9,10 @@ from typing import Any
 from ..errors import InputError
 
 DEFAULT_EXAMPLES_PER_SHARD = 128  # examples per shard task of a generated store
+# Recorded in every generated store (attribute generator.version; absent before version 2). 2:
+# silhouettes without holes, every pixel the contour passes through (raster.py); the released
+# generator's point spacing rule. 1: cv2.fillPoly of the contour, even-odd; Euclidean spacing.
+GENERATOR_VERSION = 2
 
 
 @dataclass(frozen=True)
@@ -25,8 +29,8 @@ class GeneratorParams:
     bezier_radius: tuple[float, ...] = (0.01, 0.05, 0.2, 0.5)  # r_B
     bezier_rotation: tuple[float, ...] = (0.01, 0.05, 0.2)  # rho_B
     perturb_std: float = 0.0  # sigma of eq. 20; 0 disables perturbation
-    min_spacing: float = 0.7  # neighbouring contour points >= min_spacing / n_p * s_p apart ...
-    spacing_tries: int = 200  # ... redrawn up to this many times (the authors' released generator)
+    min_spacing: float = 0.7  # consecutive contour points |dx + dy| >= min_spacing / n_p * s_p ...
+    spacing_tries: int = 201  # ... in at most this many draws (the authors' released generator)
     curve_samples: int = 32  # points per Bezier segment
 
     def __post_init__(self) -> None:

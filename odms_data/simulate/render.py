@@ -1,6 +1,7 @@
 """Drawing an example's masks, one frame at a time, at the generator's size or any other.
 
-The reference renderer: batch_render.py's fast paths must match it pixel for pixel.
+The reference renderer: batch_render.py's fast paths must match it pixel for pixel. Silhouettes
+follow raster.py's rule; a perturbation then erodes or dilates the silhouette.
 """
 
 from __future__ import annotations
@@ -10,10 +11,10 @@ import numpy as np
 
 from .object_model import ExampleSpec
 from .params import GeneratorParams
+from .raster import draw_silhouette
 
 cv2.setNumThreads(1)
 CROSS = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))  # the perturbation's structuring element
-SHIFT = 4  # fixed-point bits for cv2.fillPoly vertices (1/16 px)
 
 
 def render_frame(
@@ -23,8 +24,9 @@ def render_frame(
 
     The contour is scaled by d_min / z_i, its box centred in the image; `out` may be smaller
     than params.image_size (training resolution), in which case coordinates are scaled per
-    axis and the perturbation's iterations by the smaller axis factor. Perturbation runs on a
-    canvas with a margin, so the image border does not erode the object.
+    axis and the perturbation's iterations by the smaller axis factor. The silhouette is drawn
+    (raster.py) and perturbed on a canvas with a margin, so the image border neither closes the
+    contour nor erodes the object.
     """
     H0, W0 = params.image_size
     H, W = out.shape
@@ -40,8 +42,7 @@ def render_frame(
     x0, y0 = int(np.floor(poly[:, 0].min())) - margin, int(np.floor(poly[:, 1].min())) - margin
     x1, y1 = int(np.ceil(poly[:, 0].max())) + margin + 1, int(np.ceil(poly[:, 1].max())) + margin + 1
     canvas: np.ndarray = np.zeros((y1 - y0, x1 - x0), np.uint8)
-    fixed = np.round((poly - [x0, y0]) * (1 << SHIFT)).astype(np.int32)
-    cv2.fillPoly(canvas, [fixed], 1, cv2.LINE_8, SHIFT)
+    draw_silhouette(canvas, poly - [x0, y0])
     if k:
         op = cv2.dilate if p >= 0 else cv2.erode
         canvas = op(canvas, CROSS, iterations=k)

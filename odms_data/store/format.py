@@ -53,6 +53,11 @@ class StoreAttrs:
     units: dict[str, str] = field(default_factory=lambda: dict(UNITS))
     created_by: str = f"odms-data {__version__}"
 
+    @property
+    def generator_version(self) -> int | None:
+        """The version of the generator that made a generated store (1 when not recorded)."""
+        return None if self.generator is None else self.generator.get("version", 1)
+
     def to_json(self) -> dict[str, Any]:
         d = asdict(self)
         d["image_size"] = list(self.image_size)

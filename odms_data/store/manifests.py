@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import difflib
 import json
 from dataclasses import dataclass
 from typing import Any
@@ -22,6 +23,11 @@ class SplitManifest:
     generator: dict[str, Any] | None = None  # preset, seed, params overrides (generated)
     source: str | None = None  # what it is imported from (imported)
 
+    @property
+    def generator_version(self) -> int | None:
+        """The generator version whose content the digest is (generated splits)."""
+        return None if self.generator is None else self.generator.get("version", 1)
+
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> SplitManifest:
         return cls(**d)
@@ -35,7 +41,9 @@ def load_manifest(name: str) -> SplitManifest:
     """The manifest of split `name`; an unknown name raises InputError listing the known ones."""
     path = resource_dir("splits") / f"{name}.json"
     if not path.is_file():
-        raise InputError(f"unknown split '{name}'; known splits: {', '.join(split_names())}")
+        close = difflib.get_close_matches(name, split_names(), n=1)
+        hint = f" (did you mean {close[0]}?)" if close else ""
+        raise InputError(f"unknown split '{name}'{hint}; known splits: {', '.join(split_names())}")
     return SplitManifest.from_json(json.loads(path.read_text()))
 
 

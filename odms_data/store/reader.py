@@ -123,7 +123,9 @@ class Store:
         try:
             return self._id_to_index[example_id]
         except KeyError:
-            close = difflib.get_close_matches(example_id, self.example_ids, n=3)
+            qualified = f"{self.attrs.split}/{example_id}"  # a bare number or name, without the split
+            close = ([qualified] if qualified in self._id_to_index
+                     else difflib.get_close_matches(example_id, self.example_ids, n=3))
             hint = f"; did you mean {', '.join(close)}?" if close else ""
             raise InputError(f"{self.path}: no example '{example_id}'{hint}") from None
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -11,7 +12,7 @@ from ..errors import InputError, OdmsError
 from .backends import open_backend
 from .digest import recompute_digest
 from .format import EXAMPLE_ARRAYS, FRAME_ARRAYS, Z_ODDITY, attribute_problems, layout_problems
-from .manifests import load_manifest, split_names
+from .manifests import SplitManifest, load_manifest, split_names
 from .masks import mask_stats, packed_width, unpack
 from .reader import Store, open_store
 
@@ -30,8 +31,9 @@ class Report:
         return not self.problems
 
 
-def validate(path: str) -> Report:
-    """Every problem of the store at `path`, one line each; never raises for a bad store."""
+def validate(path: str, progress: Callable[[int], None] | None = None) -> Report:
+    """Every problem of the store at `path`, one line each; never raises for a bad store.
+    `progress(k)` is called as each block of k frames' masks has been checked."""
     report = Report(str(path))
     try:
         backend = open_backend(str(path), "r")
@@ -60,13 +62,13 @@ def validate(path: str) -> Report:
         return report
     try:
         with open_store(str(path)) as store:
-            _check_content(store, report)
+            _check_content(store, report, progress)
     except OdmsError as e:
         report.problems.append(str(e))
     return report
 
 
-def _check_content(store: Store, report: Report) -> None:
+def _check_content(store: Store, report: Report, progress: Callable[[int], None] | None) -> None:
     P = report.problems
     F, E = store.n_frames, store.n_examples
     fi = store.frame_index
@@ -106,10 +108,10 @@ def _check_content(store: Store, report: Report) -> None:
         P.append(f"example ids are not unique: {', '.join(dup)}")
     if any(not x for x in ids):
         P.append("an example id is empty")
-    _check_masks(store, report)
+    _check_masks(store, report, progress)
 
 
-def _check_masks(store: Store, report: Report) -> None:
+def _check_masks(store: Store, report: Report, progress: Callable[[int], None] | None) -> None:
     W, pad_bits = store.width, packed_width(store.width) * 8 - store.width
     pad_mask = np.uint8((1 << pad_bits) - 1) if pad_bits else None
     wrong_stats: list[int] = []
@@ -124,6 +126,8 @@ def _check_masks(store: Store, report: Report) -> None:
             if (area != store.area[f] or largest != store.largest_area[f]
                     or tuple(store.bbox[f]) != bbox):
                 wrong_stats.append(f)
+        if progress:
+            progress(len(block))
 
     try:
         digest, _ = recompute_digest(store, visit)
@@ -147,7 +151,15 @@ def _check_masks(store: Store, report: Report) -> None:
         if manifest.digest != digest:
             report.problems.append(
                 f"content digest {digest} differs from splits/{manifest.name}.json ({manifest.digest})"
+                + _version_hint(store.attrs.generator_version, manifest)
             )
+
+
+def _version_hint(version: int | None, manifest: SplitManifest) -> str:
+    if version is None or version == manifest.generator_version:
+        return ""
+    return (f": the store was made by generator version {version}, the split is version "
+            f"{manifest.generator_version}'s (odms-data generate --split {manifest.name})")
 
 
 def _first(values, k: int = 5) -> str:

@@ -96,7 +96,7 @@ def test_existing_output_and_unknown_example(tmp_path):
 
 
 def test_help_of_every_command_has_an_example():
-    for cmd in ("generate", "validate", "info", "convert", "show"):
+    for cmd in ("generate", "validate", "info", "convert", "show", "export"):
         r = odms(cmd, "--help")
         assert r.returncode == 0 and "Example" in r.stdout and "odms-data " + cmd in r.stdout
 
@@ -122,3 +122,55 @@ def test_killed_generation_never_looks_complete_and_reruns_cleanly(tmp_path, suf
     assert not partial.exists()
     reference = generate(str(tmp_path / "ref.zarr"), 1500, PRESETS["standard"], 4, workers=2)
     assert open_store(str(out)).attrs.digest == reference.digest
+
+
+def test_every_reporting_command_speaks_json_and_shows_progress_in_logs(tmp_path):
+    """--json on every command that reports; with stderr not a terminal, progress comes as lines."""
+    import json
+
+    store, h5 = tmp_path / "s.zarr", tmp_path / "s.h5"
+    runs = {
+        "generate": odms("generate", "-n", "6", "--n-obs", "4", "-o", str(store), "--json"),
+        "convert": odms("convert", str(store), str(h5), "--json"),
+        "info": odms("info", str(h5), "--json"),
+        "validate": odms("validate", str(h5), "--json"),
+        "baseline": odms("baseline", "vosde", str(store), "-o", str(tmp_path / "p.csv"), "--json"),
+        "leaderboard": odms("leaderboard", "--json"),
+        "export": odms("export", str(store), "-o", str(tmp_path / "hub"), "--json"),
+    }
+    out = {name: json.loads(r.stdout) for name, r in runs.items()}
+    assert out["generate"]["examples"] == 6 and out["convert"]["digest"] == out["generate"]["digest"]
+    assert out["info"]["example_ids"] == {"first": "generated/000000", "last": "generated/000005"}
+    assert out["validate"]["ok"] and out["baseline"]["splits"][0]["examples"] == 6
+    assert out["leaderboard"][0]["rank"] == 1 and out["export"]["splits"][0]["examples"] == 6
+    for name, label in (("generate", "generating"), ("convert", "converting"), ("validate", "validating"),
+                        ("export", "exporting")):
+        assert runs[name].stderr.splitlines()[-1].endswith(" elapsed") and label in runs[name].stderr
+    assert "6/6 (100%)" in runs["generate"].stderr
+    for group, cmd in (("import", "odms"), ("import", "recording"), ("score", None)):
+        r = odms(*filter(None, (group, cmd)), "--help")
+        assert "--json" in r.stdout, (group, cmd)
+
+
+def test_did_you_mean(tmp_path):
+    store = tmp_path / "s.zarr"
+    assert odms("generate", "-n", "3", "--n-obs", "3", "-o", str(store)).returncode == 0
+    assert_one_line_error(odms("show", str(store), "000002", "-o", str(tmp_path / "x.png")),
+                          "did you mean generated/000002?")
+    assert_one_line_error(odms("generate", "--split", "sim-vall"), "did you mean sim-val?")
+    (tmp_path / "ODMS" / "data" / "val").mkdir(parents=True)
+    assert_one_line_error(odms("import", "odms", str(tmp_path / "ODMS"), "-o", str(tmp_path / "out")),
+                          f"did you mean {tmp_path / 'ODMS' / 'data'}?")
+    r = odms("generat")
+    assert r.returncode == 2 and "Did you mean 'generate'?" in r.stderr
+    assert "generated/000000 .. generated/000002" in odms("info", str(store)).stdout
+
+
+def test_help_names_the_environment_and_completion():
+    r = odms("--help")
+    for word in ("ODMS_DATA", "ODMS_DEBUG", "ODMS_SHARED", "_ODMS_DATA_COMPLETE=bash_source"):
+        assert word in r.stdout
+    env = {**os.environ, "_ODMS_DATA_COMPLETE": "bash_complete", "COMP_WORDS": "odms-data expo",
+           "COMP_CWORD": "1"}
+    done = subprocess.run([sys.executable, "-m", "odms_data.cli"], env=env, capture_output=True, text=True)
+    assert "plain,export" in done.stdout.splitlines()

@@ -69,6 +69,17 @@ def test_stream_dataset_workers_and_epochs():
     assert torch.equal(next(iter(again))["masks"], two[0]["masks"])
 
 
+def test_stream_dataset_epochs_reach_persistent_workers():
+    """DataLoader hands persistent workers the dataset once; set_epoch must still reach them."""
+    ds = StreamDataset(4, 3, params=GeneratorParams(n_obs=3), seed=3)
+    loader = two_workers(ds, batch_size=None, persistent_workers=True)
+    seen = []
+    for epoch in range(3):
+        ds.set_epoch(epoch)
+        seen.append(_indices(loader))
+    assert seen == [list(range(12 * e, 12 * (e + 1))) for e in range(3)]
+
+
 def test_stream_dataset_resumes_at_a_batch():
     whole = list(DataLoader(StreamDataset(4, 5, seed=3), batch_size=None))
     rest = StreamDataset(4, 5, seed=3, start=2)

@@ -11,7 +11,7 @@ import zarr
 from odms_data.errors import InputError, StoreError, StoreExistsError, StoreLockedError
 from odms_data.simulate.generate_store import generate
 from odms_data.simulate.object_model import sample_example
-from odms_data.simulate.params import PRESETS
+from odms_data.simulate.params import GENERATOR_VERSION, PRESETS
 from odms_data.simulate.render import render_masks
 from odms_data.store.convert import convert
 from odms_data.store.masks import pack, stats_of, unpack
@@ -145,6 +145,20 @@ def test_validate_reports_a_store_that_does_not_match_its_manifest(tmp_path):
     generate(str(path), 3, PRESETS["standard"], 1, split="sim-val")
     problems = validate(str(path)).problems
     assert any("differs from splits/sim-val.json" in p for p in problems), problems
+    assert not any("generator version" in p for p in problems), problems
+
+
+def test_a_store_from_before_the_generator_version_opens_as_version_1(tmp_path):
+    path = tmp_path / "sim-val.zarr"
+    attrs = generate(str(path), 3, PRESETS["standard"], 1, split="sim-val")
+    assert attrs.generator["version"] == GENERATOR_VERSION == 2
+    meta = json.loads((path / "zarr.json").read_text())
+    del meta["attributes"]["odms"]["generator"]["version"]  # as written before the version existed
+    (path / "zarr.json").write_text(json.dumps(meta))
+    with open_store(str(path)) as s:
+        assert s.attrs.generator_version == 1
+    problems = validate(str(path)).problems
+    assert any("made by generator version 1, the split is version 2's" in p for p in problems), problems
 
 
 def test_incomplete_store_is_refused(tmp_path, small_zarr):

@@ -1,0 +1,51 @@
+"""`odms-data export`."""
+
+from __future__ import annotations
+
+import json
+
+import click
+
+from ..store.reader import open_store
+from .progress import progress
+
+
+@click.command()
+@click.argument("stores", nargs=-1, required=True, type=click.Path())
+@click.option("-o", "--output", type=click.Path(), required=True, help="Folder to write (the dataset).")
+@click.option("--name", default=None, help="The dataset's title (default: the output folder's name).")
+@click.option("--license", "licence", default=None, metavar="ID",
+              help="The Hub's licence id, e.g. cc-by-4.0 (default: mit for generated data, the release's "
+                   "research-only licence for the official splits; required for other data).")
+@click.option("--examples-per-file", type=click.IntRange(min=1), default=1000, show_default=True,
+              help="Examples per Parquet file.")
+@click.option("--overwrite", is_flag=True, help="Replace an earlier export at OUTPUT.")
+@click.option("--json", "as_json", is_flag=True, help="Print what was written as JSON.")
+def export(stores, output, name, licence, examples_per_file, overwrite, as_json):
+    """Export stores as a Hugging Face Hub dataset: Parquet shards, a dataset card and Croissant.
+
+    One split per store; `datasets.load_dataset(OUTPUT)` reads it, and the folder can be pushed
+    to the Hub as it is. Needs pip install 'odms-data[hub]' (pyarrow).
+
+    \b
+    Examples:
+      odms-data export sim-val.zarr sim-test.zarr -o odms-sim
+      odms-data export stores/*-val.zarr -o odms-val --name "ODMS validation"
+    """
+    from ..store.hub_export import export_hub
+
+    total = 0
+    for path in stores:
+        with open_store(path) as s:
+            total += s.n_examples
+    with progress(total, f"exporting to {output}") as update:
+        exported = export_hub(stores, output, name=name, licence=licence, examples_per_file=examples_per_file,
+                              overwrite=overwrite, progress=update)
+    if as_json:
+        click.echo(json.dumps({"output": output, "splits": [
+            {"split": e.split, "examples": e.examples, "files": e.files, "bytes": e.bytes} for e in exported
+        ]}, indent=2))
+        return
+    for e in exported:
+        click.echo(f"{e.split}: {e.examples} examples in {len(e.files)} Parquet file(s), {e.bytes:,} bytes")
+    click.echo(f"wrote {output}: README.md (dataset card), croissant.json, data/")

@@ -1,0 +1,86 @@
+"""grain datasets (JAX's data loader): a store as a random-access source, and the generated stream.
+
+    import grain
+    from odms_data.loaders.grain_loader import StoreSource, stream_dataset
+
+    val = grain.MapDataset.source(StoreSource("sim-val.zarr")).batch(512)
+    train = (grain.MapDataset.source(StoreSource("train.zarr")).seed(1).shuffle().repeat(10).batch(512)
+             .to_iter_dataset().mp_prefetch(grain.MultiprocessingOptions(num_workers=2)))
+    stream = stream_dataset(512, 5000, epochs=10, seed=1).to_iter_dataset().mp_prefetch(...)
+    for batch in stream: ...  # batch["masks"]: (512, 10, 112, 112) uint8, ready for jax.device_put
+
+An element of `StoreSource` is one example's network inputs (transforms.py), by store row. An
+element of `stream_dataset` is a whole batch, drawn together (as the other loaders draw it):
+element k holds generator indices k * batch_size + [0, batch_size), i.e. batch b of epoch e is
+element e * batches_per_epoch + b, the same batch as PyTorch's StreamDataset and the NumPy loader
+give. grain's mp_prefetch keeps the order, so the batches do not depend on the number of workers,
+and its iterators' get_state/set_state resume a run exactly.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InputError
+from ..simulate.params import GeneratorParams
+from .sources import STANDARD, GeneratedExamples, StoreExamples, stream_indices
+from .transforms import PAPER_TRANSFORM, Transform
+
+try:
+    import grain
+    from absl import flags
+except ImportError as e:  # pragma: no cover - depends on the environment
+    raise ImportError(
+        "odms_data.loaders.grain_loader needs grain: pip install 'odms-data[jax]' (see README.md)"
+    ) from e
+
+if not flags.FLAGS.is_parsed():
+    # grain 0.2.18's mp_prefetch reads an absl flag and fails (UnparsedFlagAccessError) in any
+    # program that does not start through absl.app (google/grain#1355); its defaults are what we want.
+    flags.FLAGS.mark_as_parsed()
+
+
+class StoreSource:
+    """The examples of the store at `path` as a grain random-access data source (len and row
+    indexing); picklable, the store is opened in each worker process on first use."""
+
+    def __init__(self, path: str, transform: Transform = PAPER_TRANSFORM) -> None:
+        self.examples = StoreExamples(path, transform)
+
+    def __len__(self) -> int:
+        return len(self.examples)
+
+    def __getitem__(self, row: int) -> dict[str, np.ndarray]:
+        return self.examples.example(int(row))
+
+    def __repr__(self) -> str:
+        return f"StoreSource({self.examples.path!r})"
+
+
+class _StreamBatch:
+    """Element k of the stream: the batch of generator indices k * batch_size + [0, batch_size)."""
+
+    def __init__(self, examples: GeneratedExamples, batch_size: int) -> None:
+        self.examples, self.batch_size = examples, batch_size
+
+    def __call__(self, k: int) -> dict[str, np.ndarray]:
+        return self.examples.batch(stream_indices(k, self.batch_size, 1, 0))
+
+
+def stream_dataset(
+    batch_size: int,
+    batches_per_epoch: int,
+    *,
+    epochs: int = 1,
+    params: GeneratorParams = STANDARD,
+    seed: int = 0,
+    transform: Transform = PAPER_TRANSFORM,
+    direct: bool = False,
+) -> grain.MapDataset:
+    """`epochs * batches_per_epoch` batches of freshly generated examples, no example twice.
+    `direct`: see sources.GeneratedExamples."""
+    if batch_size < 1 or batches_per_epoch < 1 or epochs < 1:
+        raise InputError(f"need batch_size, batches_per_epoch and epochs >= 1, got {batch_size}, "
+                         f"{batches_per_epoch}, {epochs}")
+    examples = GeneratedExamples(params, seed, transform, direct)
+    return grain.MapDataset.range(epochs * batches_per_epoch).map(_StreamBatch(examples, batch_size))

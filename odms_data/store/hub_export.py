@@ -1,0 +1,159 @@
+"""Export stores as a Hugging Face Hub dataset: Parquet shards, a dataset card and Croissant metadata.
+
+    DIR/README.md                               dataset card (YAML header the Hub reads, then prose)
+    DIR/croissant.json                          Croissant 1.0 JSON-LD (dataset, files, record set)
+    DIR/data/<split>/<split>-00000-of-00002.parquet
+
+One row per example: `example_id`, `split`, `source`, `d1` (NaN when unlabelled), `n`, `height`,
+`width`, `z`, `depth` and `area` (lists of n), and `masks`, a list of n masks each bit-packed as
+the store packs them (store/masks.py: rows of ceil(width / 8) bytes, most significant bit first).
+`datasets.load_dataset(DIR)` reads it, one split per store (named with `_` for `-`, as the Hub
+allows only letters, digits and `_` in split names). The folder is written as DIR.partial and
+renamed into place when complete. Needs pyarrow (the `hub` extra).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import shutil
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError, StoreExistsError
+from .hub_metadata import croissant, dataset_card, hub_split, licence_of
+from .reader import Store, open_store
+
+ROW_GROUP = 100  # examples per Parquet row group: small groups let the Hub's viewer page quickly
+Progress = Callable[[int], None]  # called with the number of examples just written
+
+
+@dataclass
+class SplitExport:
+    """What one store became: its split, examples and Parquet files (relative to the output)."""
+
+    split: str
+    examples: int
+    files: list[str]
+    bytes: int
+
+
+def _example_rows(store: Store, rows: range) -> dict[str, list]:
+    """The columns of examples `rows` of `store`, their masks read in one slice."""
+    frames = [store.frames_of(i) for i in rows]
+    flat = np.concatenate([np.zeros(0, np.int64), *frames])
+    lo = int(flat.min()) if len(flat) else 0
+    packed = store.read_packed(lo, int(flat.max()) + 1) if len(flat) else None
+    split, ids, sources = store.attrs.split, store.example_ids, store.sources
+    return {
+        "example_id": [ids[i] for i in rows],
+        "split": [split] * len(rows),
+        "source": [sources[i] for i in rows],
+        "d1": [float(store.d1[i]) for i in rows],
+        "n": [len(f) for f in frames],
+        "height": [store.height] * len(rows),
+        "width": [store.width] * len(rows),
+        "z": [store.z[f].tolist() for f in frames],
+        "depth": [store.depth[f].tolist() for f in frames],
+        "area": [store.area[f].tolist() for f in frames],
+        "masks": [[packed[k - lo].tobytes() for k in f] if packed is not None else [] for f in frames],
+    }
+
+
+def _schema():
+    import pyarrow as pa
+
+    return pa.schema([
+        ("example_id", pa.string()), ("split", pa.string()), ("source", pa.string()),
+        ("d1", pa.float64()), ("n", pa.int32()), ("height", pa.int32()), ("width", pa.int32()),
+        ("z", pa.list_(pa.float64())), ("depth", pa.list_(pa.float64())), ("area", pa.list_(pa.int32())),
+        ("masks", pa.list_(pa.binary())),
+    ])
+
+
+def _write_split(store: Store, folder: Path, examples_per_file: int, progress: Progress) -> SplitExport:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    split, n = store.attrs.split, store.n_examples
+    count = max(1, -(-n // examples_per_file))
+    (folder / "data" / split).mkdir(parents=True)
+    files, size = [], 0
+    for k in range(count):
+        rows = range(k * examples_per_file, min(n, (k + 1) * examples_per_file))
+        name = f"data/{split}/{split}-{k:05d}-of-{count:05d}.parquet"
+        table = pa.Table.from_pydict(_example_rows(store, rows), schema=_schema())
+        pq.write_table(table, folder / name, compression="zstd", row_group_size=ROW_GROUP)
+        files.append(name)
+        size += (folder / name).stat().st_size
+        progress(len(rows))
+    return SplitExport(split, n, files, size)
+
+
+def sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def export_hub(
+    stores: Sequence[str],
+    out_dir: str,
+    *,
+    name: str | None = None,
+    licence: str | None = None,
+    examples_per_file: int = 1000,
+    overwrite: bool = False,
+    progress: Progress = lambda n: None,
+) -> list[SplitExport]:
+    """Write `stores` (one split each) to `out_dir` as Parquet shards with a dataset card and
+    Croissant metadata; returns what each store became."""
+    try:
+        import pyarrow  # noqa: F401
+    except ImportError:
+        raise InputError("export needs pyarrow: pip install 'odms-data[hub]'") from None
+    if examples_per_file < 1:
+        raise InputError(f"examples per file must be at least 1, got {examples_per_file}")
+    target = Path(out_dir)
+    if target.exists() or target.is_symlink():
+        if not overwrite:
+            raise StoreExistsError(f"{out_dir}: already exists; pass --overwrite to replace it")
+        if not (target.is_dir() and not target.is_symlink()
+                and (not any(target.iterdir()) or (target / "croissant.json").is_file())):
+            raise StoreExistsError(f"{out_dir}: is not an earlier export (no croissant.json); --overwrite "
+                                   "replaces only an export or an empty folder, so choose another output")
+    opened = [open_store(p) for p in stores]
+    try:
+        splits = [s.attrs.split for s in opened]
+        twice = sorted({s for s in splits if splits.count(s) > 1})
+        if twice:
+            raise InputError(f"split {twice[0]} comes from more than one store; export each split once")
+        names = [hub_split(s) for s in splits]
+        clash = next((n for n in names if names.count(n) > 1), None)
+        if clash:
+            raise InputError(f"splits {' and '.join(s for s in splits if hub_split(s) == clash)} both become "
+                             f"the Hub split {clash}; export them separately")
+        licence = licence or licence_of([s.attrs for s in opened])
+        partial = target.with_name(target.name + ".partial")
+        shutil.rmtree(partial, ignore_errors=True)
+        partial.mkdir(parents=True)
+        try:
+            exported = [_write_split(s, partial, examples_per_file, progress) for s in opened]
+            title, attrs = name or target.name, [s.attrs for s in opened]
+            (partial / "README.md").write_text(dataset_card(title, attrs, exported, licence))
+            hashes = {f: sha256(partial / f) for e in exported for f in e.files}
+            (partial / "croissant.json").write_text(croissant(title, attrs, exported, licence, hashes))
+        except BaseException:
+            shutil.rmtree(partial, ignore_errors=True)
+            raise
+    finally:
+        for s in opened:
+            s.close()
+    if target.exists():
+        shutil.rmtree(target)
+    partial.rename(target)
+    return exported

@@ -1,0 +1,228 @@
+"""The metadata of an exported dataset (hub_export.py): the Hub's dataset card and Croissant JSON-LD.
+
+The card is a README.md whose YAML header carries what the Hub indexes (licence, task, size,
+tags, and `configs`, which maps each split to its Parquet files so that `datasets` and the Hub's
+viewer find them); the Croissant file (MLCommons Croissant 1.0) describes the dataset, its files
+and one record set whose fields are the Parquet columns.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
+
+from .._version import __version__
+from ..benchmark import official_name
+from ..errors import InputError
+from .format import StoreAttrs
+
+if TYPE_CHECKING:
+    from .hub_export import SplitExport
+
+PAPER = "Learning Object Depth from Camera Motion and Video Object Segmentation"
+BIBTEX = """@inproceedings{GrCo20,
+  author = {Griffin, Brent A. and Corso, Jason J.},
+  title = {Learning Object Depth from Camera Motion and Video Object Segmentation},
+  booktitle = {European Conference on Computer Vision (ECCV)},
+  year = {2020}
+}"""
+RELEASE_LICENCE = {  # the licence of the authors' released data (griffbr/ODMS)
+    "license": "other", "license_name": "odms-research-only",
+    "license_link": "https://github.com/griffbr/ODMS",
+}
+LICENCE_URLS = {"mit": "https://opensource.org/licenses/MIT"}
+
+# column: (Croissant data type, repeated, description)
+FIELDS = {
+    "example_id": ("sc:Text", False, "the example's id, <split>/<name>"),
+    "split": ("sc:Text", False, "the store's split"),
+    "source": ("sc:Text", False, "where the example came from"),
+    "d1": ("sc:Float", False, "label: depth (m) at the closest observation, z_1; NaN when unlabelled"),
+    "n": ("sc:Integer", False, "observations (frames) of the example"),
+    "height": ("sc:Integer", False, "mask height, pixels"),
+    "width": ("sc:Integer", False, "mask width, pixels"),
+    "z": ("sc:Float", True, "camera position (m) of each observation, ascending"),
+    "depth": ("sc:Float", True, "object depth (m) at each observation; NaN where unknown"),
+    "area": ("sc:Integer", True, "object pixels of each mask"),
+    "masks": ("sc:Text", True, "each observation's binary mask, bit-packed: height rows of ceil(width / 8) "
+              "bytes, most significant bit first (numpy.packbits(mask, axis=-1))"),
+}
+
+
+def hub_split(split: str) -> str:
+    """The Hub's name for a split: letters, digits and '_' only."""
+    return re.sub(r"\W", "_", split)
+
+
+def licence_of(stores: Sequence[StoreAttrs]) -> str:
+    """The licence of the stores' data when odms-data knows it: the generator's output is MIT like
+    odms-data, the official release is research-only; others (recordings, SYNTHIA) need --license."""
+    if all(a.domain == "generated" for a in stores):
+        return "mit"
+    if all(a.domain == "generated" or official_name(a.split, a.domain) for a in stores):
+        return "other"
+    unknown = next(a.split for a in stores
+                   if a.domain != "generated" and not official_name(a.split, a.domain))
+    raise InputError(f"the licence of split {unknown} is not known to odms-data; give --license "
+                     "(the Hub's licence id, e.g. cc-by-4.0, or other)")
+
+
+def _licence_fields(licence: str) -> dict[str, str]:
+    return dict(RELEASE_LICENCE) if licence == "other" else {"license": licence}
+
+
+def _size_category(n: int) -> str:
+    for limit, label in ((1_000, "n<1K"), (10_000, "1K<n<10K"), (100_000, "10K<n<100K"),
+                         (1_000_000, "100K<n<1M"), (10_000_000, "1M<n<10M")):
+        if n < limit:
+            return label
+    return "10M<n<100M"
+
+
+def _yaml(value: object, indent: int = 0) -> str:
+    """A small YAML writer for the card header: mappings, lists and JSON-quoted scalars."""
+    pad = " " * indent
+    if isinstance(value, Mapping):
+        out = []
+        for k, v in value.items():
+            if isinstance(v, Mapping | list):
+                out.append(f"{pad}{k}:\n{_yaml(v, indent + 2)}")
+            else:
+                out.append(f"{pad}{k}: {json.dumps(v)}")
+        return "\n".join(out)
+    if isinstance(value, list):
+        out = []
+        for v in value:
+            if isinstance(v, Mapping):
+                body = _yaml(v, indent + 2)
+                out.append(f"{pad}- {body[indent + 2:]}")
+            else:
+                out.append(f"{pad}- {json.dumps(v)}")
+        return "\n".join(out)
+    return f"{pad}{json.dumps(value)}"
+
+
+def dataset_card(
+    title: str, stores: Sequence[StoreAttrs], exported: Sequence[SplitExport], licence: str
+) -> str:
+    """README.md for the Hub: the YAML header, then what the data is, how to read it, where it came from."""
+    total = sum(e.examples for e in exported)
+    header = {
+        **_licence_fields(licence),
+        "pretty_name": title,
+        "task_categories": ["depth-estimation"],
+        "tags": ["odms", "object-depth", "segmentation-masks", "camera-motion"],
+        "size_categories": [_size_category(total)],
+        "configs": [{
+            "config_name": "default",
+            "data_files": [{"split": hub_split(e.split), "path": f"data/{e.split}/*.parquet"}
+                           for e in exported],
+        }],
+    }
+    rows = "\n".join(
+        f"| `{hub_split(e.split)}` | {a.domain} | {e.examples:,} | {a.image_size[0]}x{a.image_size[1]} | "
+        f"`{a.digest}` |" for a, e in zip(stores, exported, strict=True))
+    fields = "\n".join(f"| `{k}` | {'list of ' if rep else ''}{t.split(':')[1]} | {d} |"
+                       for k, (t, rep, d) in FIELDS.items())
+    licence_text = ("non-commercial research use only, the licence of the authors' released data "
+                    "(github.com/griffbr/ODMS)" if licence == "other" else licence)
+    first = hub_split(exported[0].split)
+    return f"""---
+{_yaml(header)}
+---
+
+# {title}
+
+ODMS (Object Depth via Motion and Segmentation; Griffin & Corso, ECCV 2020) examples: the binary
+segmentation masks of one object seen from a camera moving along its optical axis, the camera
+positions `z` and the label `d1`, the object's depth at the closest observation. Exported by
+odms-data {__version__} from its stores; licence: {licence_text}.
+
+| split | domain | examples | image size (h x w) | content digest of the store |
+| --- | --- | ---: | --- | --- |
+{rows}
+
+## Fields (one row per example)
+
+| column | type | meaning |
+| --- | --- | --- |
+{fields}
+
+## Reading it
+
+```python
+import datasets, numpy as np
+ds = datasets.load_dataset("path/or/hub-name", split="{first}")
+ex = ds[0]
+masks = np.stack([np.unpackbits(np.frombuffer(m, np.uint8).reshape(ex["height"], -1), axis=-1,
+                                count=ex["width"]).astype(bool) for m in ex["masks"]])  # (n, h, w)
+```
+
+`croissant.json` describes the same files in MLCommons Croissant 1.0. odms-data reads the stores
+these came from with `odms_data.open_store`; the digests above identify them.
+
+## Citation
+
+```bibtex
+{BIBTEX}
+```
+"""
+
+
+CONTEXT = {  # the JSON-LD context of Croissant 1.0
+    "@language": "en", "@vocab": "https://schema.org/", "sc": "https://schema.org/",
+    "cr": "http://mlcommons.org/croissant/", "rai": "http://mlcommons.org/croissant/RAI/",
+    "dct": "http://purl.org/dc/terms/", "citeAs": "cr:citeAs", "column": "cr:column",
+    "equivalentProperty": "cr:equivalentProperty",
+    "conformsTo": "dct:conformsTo", "data": {"@id": "cr:data", "@type": "@json"},
+    "dataType": {"@id": "cr:dataType", "@type": "@vocab"},
+    "examples": {"@id": "cr:examples", "@type": "@json"},
+    "extract": "cr:extract", "field": "cr:field", "fileProperty": "cr:fileProperty",
+    "fileObject": "cr:fileObject", "fileSet": "cr:fileSet", "format": "cr:format", "includes": "cr:includes",
+    "isLiveDataset": "cr:isLiveDataset", "jsonPath": "cr:jsonPath", "key": "cr:key", "md5": "cr:md5",
+    "parentField": "cr:parentField", "path": "cr:path", "recordSet": "cr:recordSet",
+    "references": "cr:references", "regex": "cr:regex", "repeated": "cr:repeated", "replace": "cr:replace",
+    "samplingRate": "cr:samplingRate", "separator": "cr:separator", "source": "cr:source",
+    "subField": "cr:subField", "transform": "cr:transform",
+}
+
+
+def croissant(title: str, stores: Sequence[StoreAttrs], exported: Sequence[SplitExport], licence: str,
+              hashes: Mapping[str, str]) -> str:
+    """Croissant 1.0 JSON-LD: the dataset, its Parquet files, and a record set over their columns."""
+    files = [{
+        "@type": "cr:FileObject", "@id": f, "name": f, "contentUrl": f,
+        "encodingFormat": "application/x-parquet", "sha256": hashes[f],
+    } for e in exported for f in e.files]
+    parquet = {"@type": "cr:FileSet", "@id": "parquet-files", "name": "parquet-files",
+               "description": "every split's Parquet shards", "encodingFormat": "application/x-parquet",
+               "includes": "data/*/*.parquet"}
+    fields = [{
+        "@type": "cr:Field", "@id": f"examples/{k}", "name": k, "description": d, "dataType": t,
+        **({"repeated": True} if rep else {}),
+        "source": {"fileSet": {"@id": "parquet-files"}, "extract": {"column": k}},
+    } for k, (t, rep, d) in FIELDS.items()]
+    splits = ", ".join(f"{hub_split(e.split)} ({e.examples} examples, {a.domain})"
+                       for a, e in zip(stores, exported, strict=True))
+    doc = {
+        "@context": CONTEXT,
+        "@type": "sc:Dataset",
+        "conformsTo": "http://mlcommons.org/croissant/1.0",
+        "name": title,
+        "description": f"ODMS examples (Griffin & Corso, ECCV 2020: {PAPER}): binary masks of an object "
+                       f"seen from a camera moving along its optical axis, camera positions and the depth "
+                       f"label d1. Splits: {splits}.",
+        "license": LICENCE_URLS.get(licence, RELEASE_LICENCE["license_link"] if licence == "other"
+                                    else licence),
+        "url": "https://github.com/griffbr/ODMS",
+        "citeAs": BIBTEX,
+        "version": "1.0.0",
+        "keywords": ["ODMS", "object depth", "segmentation masks", "camera motion"],
+        "creator": {"@type": "sc:Organization", "name": f"odms-data {__version__}"},
+        "distribution": [*files, parquet],
+        "recordSet": [{"@type": "cr:RecordSet", "@id": "examples", "name": "examples",
+                       "description": "one ODMS example per record", "field": fields}],
+    }
+    return json.dumps(doc, indent=2) + "\n"

@@ -1,0 +1,128 @@
+"""Export to the Hub's layout, read back with the real `datasets` and validated with `mlcroissant`."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import datasets
+import mlcroissant
+import numpy as np
+import pytest
+import yaml
+
+from odms_data.errors import InputError
+from odms_data.simulate.generate_store import generate
+from odms_data.simulate.params import GeneratorParams
+from odms_data.store.format import StoreAttrs
+from odms_data.store.hub_export import export_hub, sha256
+from odms_data.store.hub_metadata import licence_of
+from odms_data.store.reader import open_store
+
+PARAMS = GeneratorParams(image_size=(60, 83), sizes=(20, 40), n_obs=4)  # odd width: padded mask rows
+
+
+@pytest.fixture(autouse=True)
+def offline(monkeypatch):
+    monkeypatch.setenv("HF_HUB_OFFLINE", "1")
+    monkeypatch.setenv("HF_DATASETS_OFFLINE", "1")
+
+
+def _unpack(packed: list[bytes], height: int, width: int) -> np.ndarray:
+    rows = np.frombuffer(b"".join(packed), np.uint8).reshape(len(packed), height, -1)
+    return np.unpackbits(rows, axis=-1, count=width).astype(bool)
+
+
+def _assert_round_trip(rows, store_path, every: int = 1, also: frozenset[int] = frozenset()) -> None:
+    """Every row is its store example (each `every`-th and those in `also` compared in full),
+    masks bit for bit."""
+    with open_store(str(store_path)) as s:
+        count = 0
+        for i, row in enumerate(rows):
+            count += 1
+            if i % every and i not in also:
+                continue
+            ex = s.example(i)
+            assert row["example_id"] == ex.example_id and row["n"] == ex.n == len(row["masks"])
+            np.testing.assert_array_equal(_unpack(row["masks"], row["height"], row["width"]), ex.masks)
+            np.testing.assert_array_equal(row["z"], ex.z)
+            np.testing.assert_array_equal(np.array(row["depth"], float), ex.depth)  # NaN where unknown
+            np.testing.assert_array_equal(row["d1"], ex.d1)
+        assert count == s.n_examples
+
+
+def test_generated_stores_round_trip_through_datasets_and_croissant(tmp_path):
+    a, b = tmp_path / "a.zarr", tmp_path / "b.h5"
+    generate(str(a), 23, PARAMS, seed=1, split="tiny-val")
+    generate(str(b), 5, PARAMS, seed=2, split="tiny-test")
+    out = tmp_path / "hub"
+    exported = export_hub([str(a), str(b)], str(out), examples_per_file=10)
+    assert [(e.split, e.examples, len(e.files)) for e in exported] == [("tiny-val", 23, 3),
+                                                                        ("tiny-test", 5, 1)]
+
+    ds = datasets.load_dataset(str(out), cache_dir=str(tmp_path / "cache"))
+    assert sorted(ds) == ["tiny_test", "tiny_val"]
+    _assert_round_trip(ds["tiny_val"], a)
+    _assert_round_trip(ds["tiny_test"], b)
+
+    card = (out / "README.md").read_text()
+    header = yaml.safe_load(card.split("---")[1])
+    assert header["license"] == "mit" and header["task_categories"] == ["depth-estimation"]
+    assert header["size_categories"] == ["n<1K"] and "@inproceedings{GrCo20" in card
+
+    meta = json.loads((out / "croissant.json").read_text())
+    files = [d for d in meta["distribution"] if d["@type"] == "cr:FileObject"]
+    assert sorted(f["contentUrl"] for f in files) == sorted(f for e in exported for f in e.files)
+    assert all(f["sha256"] == sha256(out / f["contentUrl"]) for f in files)
+    records = list(mlcroissant.Dataset(jsonld=str(out / "croissant.json")).records("examples"))
+    assert len(records) == 28
+    first = next(r for r in records if r["examples/example_id"] == b"tiny-val/000000")
+    with open_store(str(a)) as s:
+        np.testing.assert_array_equal(_unpack(first["examples/masks"], 60, 83), s.example(0).masks)
+
+
+def test_export_keeps_what_the_user_had(tmp_path):
+    store = tmp_path / "s.zarr"
+    generate(str(store), 3, PARAMS, seed=1)
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("keep me")
+
+    def run(*args):
+        return subprocess.run([sys.executable, "-m", "odms_data.cli", "export", str(store), *args],
+                              capture_output=True, text=True)
+
+    for args in (["-o", str(mine)], ["-o", str(mine), "--overwrite"]):
+        r = run(*args)
+        lines = r.stderr.strip().splitlines()
+        assert r.returncode == 2 and len(lines) == 1 and lines[0].startswith("odms-data: error:"), r.stderr
+    assert (mine / "notes.txt").read_text() == "keep me" and not (tmp_path / "mine.partial").exists()
+    r = run("-o", str(tmp_path / "hub"), "--json")
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["splits"][0]["examples"] == 3
+    assert run("-o", str(tmp_path / "hub"), "--overwrite").returncode == 0  # an earlier export may go
+
+
+def test_licence_known_for_generated_and_official_data_only():
+    def attrs(split, domain):
+        return StoreAttrs(split=split, domain=domain, image_size=(4, 4), counts={})
+
+    assert licence_of([attrs("sim-val", "generated")]) == "mit"
+    assert licence_of([attrs("robot-val", "robot"), attrs("sim-val", "generated")]) == "other"
+    with pytest.raises(InputError, match="cup.*--license"):
+        licence_of([attrs("cup", "recording")])
+
+
+def test_official_driving_split_round_trips(official_stores, tmp_path):
+    """The release's driving examples: 760x1280 masks, NaN depths at empty masks, research-only
+    licence. Streamed, as datasets' cache would hold the masks unpacked (about 700 MB)."""
+    out = tmp_path / "hub"
+    export_hub([str(official_stores["driving-val"])], str(out))
+    header = yaml.safe_load((out / "README.md").read_text().split("---")[1])
+    assert header["license"] == "other" and header["license_name"] == "odms-research-only"
+    ds = datasets.load_dataset(str(out), split="driving_val", streaming=True)
+    with open_store(str(official_stores["driving-val"])) as s:
+        unknown = frozenset(i for i in range(s.n_examples) if np.isnan(s.depth[s.frames_of(i)]).any())
+    assert unknown  # the release's NaN depths at empty masks
+    _assert_round_trip(ds, official_stores["driving-val"], every=5, also=unknown)
