@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -11,7 +12,7 @@ import click
 
 from ..network.variants import VARIANTS
 from ..simulate.params import PRESETS
-from .progress import progress
+from .progress import PERIOD, duration, progress
 from .score_commands import DATA_HELP
 
 
@@ -25,12 +26,13 @@ def _describe(s: Any) -> str:
 
 
 class _TrainProgress:
-    """A bar on a terminal; elsewhere (a log file) a line at each validation."""
+    """A bar on a terminal; elsewhere (a log file) a line every PERIOD seconds and at the end."""
 
-    def __init__(self, run: str, val_every: int) -> None:
-        self.run, self.val_every, self.tty = run, val_every, sys.stderr.isatty()
+    def __init__(self, run: str) -> None:
+        self.run, self.tty = run, sys.stderr.isatty()
         self.bar: Any = None
         self.status: Any = None
+        self.last = -PERIOD
 
     def __call__(self, s: Any) -> None:
         if self.status is None:
@@ -43,8 +45,11 @@ class _TrainProgress:
                                              file=sys.stderr, item_show_func=_describe)
                 self.bar.__enter__()
             self.bar.update(1, s)
-        elif s.iteration % self.val_every == 0 or s.iteration == s.iterations:
-            click.echo(f"iteration {s.iteration}/{s.iterations}: {_describe(s)}", err=True)
+        elif time.monotonic() - self.last >= PERIOD or s.iteration == s.iterations:
+            self.last = time.monotonic()
+            left = (s.iterations - s.iteration) / s.iterations_per_s if s.iterations_per_s else 0
+            click.echo(f"iteration {s.iteration}/{s.iterations}, {duration(s.seconds)} elapsed"
+                       + (f", about {duration(left)} left" if left else "") + f": {_describe(s)}", err=True)
 
     def close(self) -> None:
         if self.bar is not None:
@@ -101,7 +106,7 @@ def train(ctx, model, radial, run, val, iterations, batch_size, lr, val_every, n
     stores = tuple(str(Path(v).resolve()) if Path(v).exists() else v for v in val)
     config = TrainConfig(model=model, radial=radial, n_obs=n_obs, preset=preset, seed=seed,
                          iterations=iterations, batch_size=batch_size, lr=lr, val_every=val_every, val=stores)
-    shown = _TrainProgress(run, val_every)
+    shown = _TrainProgress(run)
     try:
         s = run_training(run, config, workers=workers, device=device, overwrite=overwrite, report=shown)
     except KeyboardInterrupt:
