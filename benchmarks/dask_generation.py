@@ -1,77 +1,144 @@
-"""Throughput of generating on a Dask LocalCluster of 2 workers against local `--workers 2`.
+"""Throughput of generating on Dask clusters of 2 single-threaded workers against local `--workers 2`.
 
 Run by hand: `python benchmarks/dask_generation.py [--count 4000] [--repeat 3]` (needs the dask
-extra). Both configurations run `odms-data generate` in a subprocess (standard preset, n = 10,
-480x640, Zarr, default shard size), so both pay the same start-up; the LocalCluster
-(processes, 1 thread each) is started once beforehand, as a real cluster would be, and its
-start-up is reported apart. Runs alternate between the configurations, and the median of
-`--repeat` runs is reported, so a load that drifts during the run affects both alike. The
-overhead of the engine is `1 - ratio`. Both stores must have the same digest.
+extra). Every configuration runs `odms-data generate` in a subprocess (standard preset, n = 10,
+480x640, Zarr, default shard size), so all pay the same start-up. The clusters are started once
+beforehand, as real clusters would be: a default deployment (`dask scheduler` and `dask worker
+--nworkers 2 --nthreads 1` processes, the workers under Dask's nanny, which sets
+MALLOC_TRIM_THRESHOLD_=65536 in them), the same without the nanny, and a LocalCluster. Runs
+alternate between the configurations, and the median of `--repeat` runs is reported, so a load
+that drifts during the run affects all alike; CPU-seconds are those of the generating processes
+(the client, and the workers, or the cluster's worker processes), from /proc. The overhead of an
+engine is `1 - ratio`. All stores must have the same digest.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import resource
 import shutil
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
+from contextlib import ExitStack, contextmanager
 from pathlib import Path
+
+import psutil
 
 # run as a script, this file's own folder comes first on sys.path, where its name hides the package
 sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
-from distributed import LocalCluster  # noqa: E402
+from distributed import Client, LocalCluster  # noqa: E402
+
+DASK = Path(sys.executable).with_name("dask")
 
 
-def run(args: list[str]) -> tuple[float, str]:
-    """Wall seconds and the printed digest of one `odms-data generate`."""
-    t = time.perf_counter()
+def children_cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def tree_cpu(pids: list[int]) -> float:
+    """CPU-seconds so far of these processes and all their descendants."""
+    total = 0.0
+    for pid in pids:
+        try:
+            root = psutil.Process(pid)
+            for p in [root, *root.children(recursive=True)]:
+                t = p.cpu_times()
+                total += t.user + t.system
+        except psutil.Error:
+            pass
+    return total
+
+
+def run(args: list[str], cluster_pids: list[int]) -> tuple[float, float, str]:
+    """Wall seconds, CPU-seconds (the command and the cluster) and the digest of one `generate`."""
+    c0, k0, t = children_cpu(), tree_cpu(cluster_pids), time.perf_counter()
     out = subprocess.run([sys.executable, "-m", "odms_data.cli", "generate", *args],
                          capture_output=True, text=True)
     secs = time.perf_counter() - t
+    cpu = children_cpu() - c0 + tree_cpu(cluster_pids) - k0
     if out.returncode:
         raise SystemExit(f"odms-data generate {' '.join(args)} failed: {out.stderr.strip()}")
-    return secs, out.stdout.rsplit("digest ", 1)[1].split()[0]
+    return secs, cpu, out.stdout.rsplit("digest ", 1)[1].split()[0]
+
+
+@contextmanager
+def deployment(tmp: Path, nanny: bool):
+    """A `dask scheduler` process and 2 single-threaded workers: one `dask worker --nworkers 2`
+    (nannies) or two `dask worker --no-nanny`; yields the address and the processes' ids."""
+    file = tmp / f"scheduler-{nanny}.json"
+    log = open(tmp / f"dask-{nanny}.log", "w")  # noqa: SIM115  # closed with the processes
+    quiet = {"stdout": log, "stderr": subprocess.STDOUT}
+    common = ["--no-dashboard", "--scheduler-file", file]
+    procs = [subprocess.Popen([DASK, "scheduler", "--host", "127.0.0.1", "--port", "0", *common], **quiet)]
+    workers = [["--nworkers", "2", "--nanny"]] if nanny else [["--no-nanny"]] * 2
+    procs += [subprocess.Popen([DASK, "worker", "--nthreads", "1", *w, *common], **quiet) for w in workers]
+    try:
+        while not file.exists():
+            time.sleep(0.1)
+        time.sleep(0.5)  # written whole
+        address = json.loads(file.read_text())["address"]
+        with Client(address, timeout=60) as client:
+            client.wait_for_workers(2, timeout=120)
+        yield address, [p.pid for p in procs]
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+            p.wait(30)
+        log.close()
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--count", type=int, default=4000)
     ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--url", action="store_true", help="also write a file:// URL on the cluster")
+    ap.add_argument("--url", action="store_true", help="also write a file:// URL on the nanny deployment")
     a = ap.parse_args()
     tmp = Path(tempfile.mkdtemp())
-    t = time.perf_counter()
-    cluster = LocalCluster(n_workers=2, processes=True, threads_per_worker=1, dashboard_address=":0")
-    print(f"LocalCluster(2 workers) start-up: {time.perf_counter() - t:.1f} s (not counted below)")
-    configs = {
-        "local --workers 2": ["-o", str(tmp / "local.zarr"), "--workers", "2"],
-        "dask LocalCluster 2": ["-o", str(tmp / "dask.zarr"), "--scheduler", cluster.scheduler_address],
-    }
-    if a.url:
-        configs["dask -> file:// URL"] = ["-o", f"file://{tmp}/url.zarr", "--scheduler",
-                                          cluster.scheduler_address]
-    times: dict[str, list[float]] = {name: [] for name in configs}
+    times: dict[str, list[tuple[float, float]]] = {}
     digests = set()
     try:
-        for _ in range(a.repeat):
-            for name, args in configs.items():
-                secs, digest = run(["-n", str(a.count), "--overwrite", *args])
-                times[name].append(secs)
-                digests.add(digest)
+        with ExitStack() as stack:
+            t = time.perf_counter()
+            nanny, nanny_pids = stack.enter_context(deployment(tmp, nanny=True))
+            bare, bare_pids = stack.enter_context(deployment(tmp, nanny=False))
+            local = stack.enter_context(LocalCluster(n_workers=2, processes=True, threads_per_worker=1,
+                                                     dashboard_address=":0"))
+            print(f"clusters' start-up: {time.perf_counter() - t:.1f} s (not counted below)")
+            local_pids = [w.process.pid for w in local.workers.values()]
+            configs = {
+                "local --workers 2": (["-o", str(tmp / "local.zarr"), "--workers", "2"], []),
+                "dask worker (nanny)": (["-o", str(tmp / "nanny.zarr"), "--scheduler", nanny], nanny_pids),
+                "dask worker --no-nanny": (["-o", str(tmp / "bare.zarr"), "--scheduler", bare], bare_pids),
+                "dask LocalCluster": (["-o", str(tmp / "lc.zarr"), "--scheduler", local.scheduler_address],
+                                      local_pids),
+            }
+            if a.url:
+                configs["dask (nanny) -> file://"] = (
+                    ["-o", f"file://{tmp}/url.zarr", "--scheduler", nanny], nanny_pids)
+            for _ in range(a.repeat):
+                for name, (args, pids) in configs.items():
+                    secs, cpu, digest = run(["-n", str(a.count), "--overwrite", *args], pids)
+                    times.setdefault(name, []).append((secs, cpu))
+                    digests.add(digest)
     finally:
-        cluster.close()
         shutil.rmtree(tmp)
     if len(digests) != 1:
         raise SystemExit(f"digests differ between configurations: {sorted(digests)}")
-    base = a.count / statistics.median(times["local --workers 2"])
-    print(f"{a.count} examples, median of {a.repeat} runs each; digest {digests.pop()}")
-    print(f"{'configuration':22} {'ex/s':>7} {'x local':>8}   runs (s)")
-    for name, secs in times.items():
-        rate = a.count / statistics.median(secs)
-        print(f"{name:22} {rate:7.0f} {rate / base:8.2f}   {' '.join(f'{s:.1f}' for s in secs)}")
+    print(f"{a.count} examples, median of {a.repeat} runs each; digest {digests.pop()}; "
+          f"load average {psutil.getloadavg()[0]:.1f} on {psutil.cpu_count()} CPUs")
+    base = a.count / statistics.median(s for s, _ in times["local --workers 2"])
+    base_cpu = a.count / statistics.median(c for _, c in times["local --workers 2"])
+    print(f"{'configuration':24} {'ex/s':>7} {'x local':>8} {'ex/CPU-s':>9} {'x local':>8}   runs (s)")
+    for name, runs in times.items():
+        rate = a.count / statistics.median(s for s, _ in runs)
+        per_cpu = a.count / statistics.median(c for _, c in runs)
+        print(f"{name:24} {rate:7.0f} {rate / base:8.2f} {per_cpu:9.0f} {per_cpu / base_cpu:8.2f}   "
+              f"{' '.join(f'{s:.1f}' for s, _ in runs)}")
 
 
 if __name__ == "__main__":

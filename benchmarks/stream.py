@@ -3,8 +3,9 @@ and with 1 and 2 worker processes, and a store read through each loader.
 
     python benchmarks/stream.py [--store sim-val.zarr] [--examples 4096] [--batch-size 256]
 
-"112x112" streams masks equal to a store's shrunk to 112x112 (the default); "direct" draws them
-straight at 112x112 (GeneratedExamples(direct=True)). The baseline, measured in the same run, is
+"112x112" streams masks equal to a store's shrunk to 112x112 (the default, uint8); "coverage" the
+same masks as float32 covered fractions (Transform(coverage=True)); "direct" draws them straight
+at 112x112 (GeneratedExamples(direct=True)). The baseline, measured in the same run, is
 the naive streaming path: draw each mask at 480x640 with render.render_masks and shrink it to
 112x112. Timing starts when the first batch arrives, so worker start-up is left out; the first
 batch is not counted. grain's rows count from the start instead, all batches: in-process, grain
@@ -94,19 +95,23 @@ def main() -> None:
     print(f"{len(os.sched_getaffinity(0))} CPUs available, batch size {args.batch_size}, n = {PARAMS.n_obs}")
     B = args.batch_size
     nb = max(2, args.examples // B)
-    results: list[tuple[str, float]] = []
-    print(f"{'':<48} {'examples/s':>10} {'vs baseline':>11} {'examples/CPU-s':>15}")
+    results: list[tuple[str, float, float]] = []
+    print(f"{'':<48} {'examples/s':>10} {'vs baseline':>11} {'examples/CPU-s':>15} {'vs baseline':>11}")
 
     def record(name: str, value: tuple[float, float]) -> None:
-        results.append((name, value[0]))
-        print(f"{name:<48} {value[0]:10.0f} {value[0] / results[0][1]:10.1f}x {value[1]:15.0f}", flush=True)
+        results.append((name, *value))
+        _, base, base_cpu = results[0]
+        wall, cpu = value
+        print(f"{name:<48} {wall:10.0f} {wall / base:10.1f}x {cpu:15.0f} {cpu / base_cpu:10.1f}x", flush=True)
 
     record("baseline: 480x640 drawn, shrunk to 112x112", rate(naive(B, max(2, nb // 4)), B))
-    for size, direct, label in (((112, 112), False, "112x112"), ((112, 112), True, "112x112 direct"),
-                                (None, False, "480x640")):
-        t = Transform(size=size)
+    for size, direct, coverage, label in (((112, 112), False, False, "112x112"),
+                                          ((112, 112), False, True, "112x112 coverage"),
+                                          ((112, 112), True, False, "112x112 direct"),
+                                          (None, False, False, "480x640")):
+        t = Transform(size=size, coverage=coverage)
         b = B if size else 16  # a batch of 480x640 masks is 3 MB an example
-        for workers in (0, 1, 2):
+        for workers in (0, 2):
             batches = stream_batches(b, nb * B // b // (1 if size else 4), params=PARAMS, transform=t,
                                      direct=direct, workers=workers)
             record(f"numpy stream {label}, workers={workers}", rate(batches, b))
@@ -121,10 +126,16 @@ def main() -> None:
 
         from odms_data.loaders.torch_loader import StoreDataset, StreamDataset
 
-        for workers in (1, 2):
-            ds = StreamDataset(B, nb, params=PARAMS)
-            record(f"torch stream 112x112, workers={workers}",
-                   rate(DataLoader(ds, batch_size=None, num_workers=workers), B))
+        for coverage in (False, True):
+            for workers in (2,):
+                ds = StreamDataset(B, nb, params=PARAMS, transform=Transform(coverage=coverage))
+                record(f"torch stream 112x112{' coverage' if coverage else ''}, workers={workers}",
+                       rate(DataLoader(ds, batch_size=None, num_workers=workers), B))
+    if has_tf:
+        from odms_data.loaders.tf_loader import from_generator
+
+        record("tf stream 112x112 coverage, workers=2",
+               rate(from_generator(B, nb, params=PARAMS, transform=Transform(coverage=True), workers=2), B))
 
     with tempfile.TemporaryDirectory() as tmp:
         store = args.store

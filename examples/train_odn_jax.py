@@ -47,7 +47,7 @@ def init(key: jax.Array, n_obs: int) -> dict:
 
 def scale(params: dict, masks: jax.Array, radial: jax.Array, zbar: jax.Array) -> jax.Array:
     """The predicted relative scale d1/d_n of each example of a batch."""
-    x = jnp.concatenate([masks.astype(jnp.float32), radial], axis=1)  # uint8 masks made float here
+    x = jnp.concatenate([masks.astype(jnp.float32), radial], axis=1)  # float32 unless rounded=True
     for w, b in params["conv"]:
         x = jax.lax.conv_general_dilated(x, w, (2, 2), "SAME", dimension_numbers=("NCHW", "OIHW", "NCHW"))
         x = jax.nn.relu(x + b)

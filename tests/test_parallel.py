@@ -123,3 +123,36 @@ def test_ordered_map_asks_a_callable_bound_at_every_top_up_and_abandons_the_rest
     assert submitted == [0, 1, 2, 3, 4, 5, 6]  # at most 1, then 2, then 4 pending after each top-up
     results.close()
     assert abandoned == [3, 4, 5, 6]
+
+
+# --- how many workers a job is worth ----------------------------------------------------------
+
+def test_workers_are_started_only_for_enough_work():
+    from odms_data.parallel import WORK_PER_WORKER_S, workers_for
+
+    assert workers_for(0.0, 8) == workers_for(WORK_PER_WORKER_S * 1.9, 8) == 1
+    assert workers_for(WORK_PER_WORKER_S * 2, 8) == 2
+    assert workers_for(WORK_PER_WORKER_S * 100, 8) == 8
+    assert workers_for(WORK_PER_WORKER_S * 100, 1) == 1
+
+
+def test_generate_chooses_workers_by_the_work_unless_told(tmp_path):
+    """2,000 examples (about a worker's start-up each, twice over) run in-process by default;
+    100,000 would start one worker per core; `workers` given is obeyed."""
+    import multiprocessing
+
+    from odms_data.parallel import workers_for
+    from odms_data.simulate.generate_store import generate, work_seconds
+    from odms_data.simulate.params import preset
+
+    standard = preset("standard")
+    assert workers_for(work_seconds(2000, standard), 2) == 1
+    assert workers_for(work_seconds(100_000, standard), 2) == 2
+    small = preset("standard", image_size=(60, 80), sizes=(20,))
+    alive: list[int] = []
+    progress = lambda _: alive.append(len(multiprocessing.active_children()))  # noqa: E731
+    generate(str(tmp_path / "auto.zarr"), 16, small, 0, examples_per_shard=4, progress=progress)
+    assert alive == [0, 0, 0, 0]
+    alive.clear()
+    generate(str(tmp_path / "two.zarr"), 16, small, 0, workers=2, examples_per_shard=4, progress=progress)
+    assert alive and min(alive) == 2

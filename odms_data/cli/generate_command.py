@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import os
 
 import click
 
@@ -42,8 +41,9 @@ def _parse_param(values: tuple[str, ...]) -> dict:
               help="Output store (default: <split>.zarr, or .h5 with --format hdf5).")
 @click.option("--format", "fmt", type=click.Choice(["zarr", "hdf5"]), default=None,
               help="Store backend (default: from the output suffix, else zarr).")
-@click.option("--workers", type=click.IntRange(min=1), default=os.cpu_count() or 1,
-              show_default="all cores", help="Worker processes.")
+@click.option("--workers", type=click.IntRange(min=1), default=None,
+              help="Worker processes (default: as many as the work is worth, up to all cores; "
+                   "each takes ~0.6 s to start, so a small run uses one, in-process).")
 @click.option("--examples-per-shard", type=click.IntRange(min=1),
               default=DEFAULT_EXAMPLES_PER_SHARD, show_default=True,
               help="Examples per shard (one task each); does not change the content.")
@@ -53,8 +53,7 @@ def _parse_param(values: tuple[str, ...]) -> dict:
               help="Run the shards on the Dask cluster of this scheduler (e.g. tcp://host:8786) "
                    "instead of local --workers; needs the dask extra. The output must be a path "
                    "every worker sees, or a URL such as s3://bucket/train.zarr.")
-@click.pass_context
-def generate(ctx, split_name, count, preset, seed, n_obs, params, store_split, output, fmt, workers,
+def generate(split_name, count, preset, seed, n_obs, params, store_split, output, fmt, workers,
              examples_per_shard, overwrite, as_json, scheduler):
     """Generate simulated ODMS examples into a store.
 
@@ -67,7 +66,7 @@ def generate(ctx, split_name, count, preset, seed, n_obs, params, store_split, o
     from ..simulate.generate_store import generate as generate_store
     from ..store.manifests import check_against_manifest, load_manifest
 
-    if scheduler and ctx.get_parameter_source("workers") != click.core.ParameterSource.DEFAULT:
+    if scheduler and workers is not None:
         raise InputError("--workers and --scheduler exclude each other; the cluster has its own workers")
     overrides = _parse_param(params)
     manifest = None

@@ -7,7 +7,7 @@
     train = (grain.MapDataset.source(StoreSource("train.zarr")).seed(1).shuffle().repeat(10).batch(512)
              .to_iter_dataset().mp_prefetch(grain.MultiprocessingOptions(num_workers=2)))
     stream = stream_dataset(512, 5000, epochs=10, seed=1).to_iter_dataset().mp_prefetch(...)
-    for batch in stream: ...  # batch["masks"]: (512, 10, 112, 112) uint8, ready for jax.device_put
+    for batch in stream: ...  # batch["masks"]: (512, 10, 112, 112) float32, ready for jax.device_put
 
 An element of `StoreSource` is one example's network inputs (transforms.py), by store row. An
 element of `stream_dataset` is a whole batch, drawn together (as the other loaders draw it):

@@ -2,7 +2,7 @@
 
     from odms_data.loaders import numpy_loader
     for batch in numpy_loader.stream_batches(512, 5000, seed=1, workers=2):
-        x = jax.device_put(batch["masks"])  # (512, 10, 112, 112) uint8
+        x = jax.device_put(batch["masks"])  # (512, 10, 112, 112) float32
 
 Batches are made in order, by the calling process or by `workers` spawned processes with at
 most 2 * workers batches in flight; the content never depends on the number of workers. Workers

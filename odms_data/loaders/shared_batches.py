@@ -10,8 +10,12 @@ batch spent about 30 ms on page faults in each process; reusing blocks removes b
 
 from __future__ import annotations
 
+import _posixshmem  # type: ignore[import-not-found]  # the stdlib's, behind SharedMemory
 import contextlib
 import ctypes
+import mmap
+import multiprocessing.util
+import os
 import threading
 import weakref
 from multiprocessing.shared_memory import SharedMemory
@@ -23,6 +27,8 @@ from ..parallel import uninterrupted
 
 Layout = dict[str, tuple[tuple[int, ...], str, int]]  # key -> shape, dtype, byte offset in the block
 _ALIGN = 64
+HEADER = _ALIGN  # bytes at the start of a block before its arrays: the flags below
+BUSY, ATTACHED, RETIRED = 0, 1, 2  # header bytes of a block a DataLoader worker owns (WorkerBlocks)
 _ATTACHED: dict[str, SharedMemory] = {}  # blocks this worker has mapped, by name
 
 
@@ -55,7 +61,7 @@ class Arena:
 
     def __init__(self, lent: str | None) -> None:
         self.block = _attach(lent) if lent else None
-        self.used = 0
+        self.used = HEADER
         self.address = np.frombuffer(_buffer(self.block), np.uint8).ctypes.data if self.block else 0
 
     def empty(self, shape: tuple[int, ...], dtype: np.dtype) -> np.ndarray:
@@ -79,14 +85,25 @@ class Arena:
         if self.block is not None and len(offsets) == len(batch):
             return self.block.name, {k: (a.shape, a.dtype.str, offsets[k]) for k, a in batch.items()}
         with uninterrupted:  # created and registered with the resource tracker, or not at all
-            block = _Block(create=True, size=max(1, sum(_aligned(a.nbytes) for a in batch.values())))
+            block = _Block(create=True, size=HEADER + sum(_aligned(a.nbytes) for a in batch.values()))
         _ATTACHED[block.name] = block
-        layout, offset = {}, 0
+        layout, offset = {}, HEADER
         for key, a in batch.items():
             np.ndarray(a.shape, a.dtype, buffer=block.buf, offset=offset)[...] = a
             layout[key] = (a.shape, a.dtype.str, offset)
             offset += _aligned(a.nbytes)
         return block.name, layout
+
+
+def _views(buf: memoryview, layout: Layout, release, *args) -> dict[str, np.ndarray]:
+    """The arrays of `layout` viewing a block's `buf`; `release(*args)` is called once they are all gone."""
+    sizes = {k: int(np.prod(shape)) * np.dtype(dt).itemsize for k, (shape, dt, _) in layout.items()}
+    end = max((off + sizes[k] for k, (_, _, off) in layout.items()), default=HEADER)
+    owner = (ctypes.c_char * end).from_buffer(buf)  # views of it keep it alive
+    weakref.finalize(owner, release, *args)
+    base = np.frombuffer(owner, np.uint8)  # type: ignore[call-overload]  # numpy's stubs omit ctypes arrays
+    return {key: base[off : off + sizes[key]].view(dt).reshape(shape)
+            for key, (shape, dt, off) in layout.items()}
 
 
 class BlockPool:
@@ -119,14 +136,7 @@ class BlockPool:
     def take(self, name: str, layout: Layout, lent: str | None) -> dict[str, np.ndarray]:
         """The batch in block `name` as arrays viewing it; the block is free again once they are
         all gone."""
-        block = self._mapped(name, lent)
-        sizes = {k: int(np.prod(shape)) * np.dtype(dt).itemsize for k, (shape, dt, _) in layout.items()}
-        end = max((off + sizes[k] for k, (_, _, off) in layout.items()), default=0)
-        owner = (ctypes.c_char * max(end, 1)).from_buffer(_buffer(block))  # views of it keep it alive
-        weakref.finalize(owner, self._release, name)
-        base = np.frombuffer(owner, np.uint8)  # type: ignore[call-overload]  # numpy's stubs omit ctypes arrays
-        return {key: base[off : off + sizes[key]].view(dt).reshape(shape)
-                for key, (shape, dt, off) in layout.items()}
+        return _views(_buffer(self._mapped(name, lent)), layout, self._release, name)
 
     def give_back(self, name: str, lent: str | None) -> None:
         """A batch made but never taken (the caller stopped early)."""
@@ -153,3 +163,118 @@ class BlockPool:
                 with contextlib.suppress(BufferError):
                     self.blocks.pop(name).close()
             self.free.clear()
+
+
+# --- PyTorch DataLoader workers: blocks owned by the worker, flags in the block ----------------
+#
+# A DataLoader worker cannot be lent blocks (nothing goes from the main process to an iterable
+# dataset's worker), so it owns its blocks. It sends a batch as a SharedBatch, which pickles to
+# the block's name and layout; unpickled in the main process, it becomes arrays viewing that
+# block there (mapped once, kept mapped). The block's BUSY byte is set by the worker when it
+# sends and cleared in the main process when the batch's arrays are all gone; the worker writes
+# a batch only into a block that is not busy, else makes a new one. The worker removes the names
+# of its blocks when it exits (its resource tracker does, if it is killed) and marks them RETIRED;
+# the main process unmaps a retired block once it is not busy. The main process maps blocks
+# without registering them with a resource tracker: the worker's tracker owns the names (with
+# forked workers it is another tracker, which would otherwise remove the names twice).
+
+
+def _header(buf: memoryview) -> np.ndarray:
+    return np.ndarray((HEADER,), np.uint8, buffer=buf)
+
+
+class SharedBatch:
+    """A batch in a worker's block, on its way to the main process: `rebuild(name, layout)` runs
+    there when it is unpickled (received_arrays, or a function that wraps it)."""
+
+    def __init__(self, name: str, layout: Layout, rebuild) -> None:
+        self.name, self.layout, self.rebuild = name, layout, rebuild
+
+    def __reduce__(self):
+        return self.rebuild, (self.name, self.layout)
+
+
+class WorkerBlocks:
+    """A DataLoader worker's blocks: `arena()` for the next batch, `send(arena, batch)` to hand it
+    over. One per worker process (`worker_blocks`), so persistent workers reuse them every epoch."""
+
+    def __init__(self) -> None:
+        self.blocks: list[SharedMemory] = []
+        # after the worker's result queue has flushed (its finaliser runs at priority -5)
+        multiprocessing.util.Finalize(self, self.close, exitpriority=-10)
+
+    def arena(self) -> Arena:
+        free = next((b for b in self.blocks if not _header(_buffer(b))[BUSY]), None)
+        return Arena(free.name if free else None)
+
+    def send(self, arena: Arena, batch: dict[str, np.ndarray], rebuild) -> SharedBatch:
+        name, layout = arena.finish(batch)
+        block = _ATTACHED[name]
+        if block not in self.blocks:
+            self.blocks.append(block)
+        _header(_buffer(block))[BUSY] = 1
+        return SharedBatch(name, layout, rebuild)
+
+    def close(self) -> None:
+        """Retire every block and remove its name (the main process keeps its mapping)."""
+        for block in self.blocks:
+            _header(_buffer(block))[RETIRED] = 1
+            with contextlib.suppress(FileNotFoundError):
+                block.unlink()
+            _ATTACHED.pop(block.name, None)
+            with contextlib.suppress(BufferError):
+                block.close()
+        self.blocks.clear()
+
+
+class _Mapping:
+    """A worker's block mapped in the main process, untracked."""
+
+    def __init__(self, name: str) -> None:
+        fd = _posixshmem.shm_open("/" + name, os.O_RDWR, mode=0o600)
+        try:
+            self._mmap = mmap.mmap(fd, os.fstat(fd).st_size)
+        finally:
+            os.close(fd)
+        self.buf = memoryview(self._mmap)
+
+    def close(self) -> None:
+        """Unmap, unless arrays still view it (then it goes with them)."""
+        with contextlib.suppress(BufferError):
+            self.buf.release()
+            self._mmap.close()
+
+
+_WORKER_BLOCKS: list[WorkerBlocks] = []  # this DataLoader worker's, made on first use
+
+
+def worker_blocks() -> WorkerBlocks:
+    """This DataLoader worker process's blocks."""
+    if not _WORKER_BLOCKS:
+        _WORKER_BLOCKS.append(WorkerBlocks())
+    return _WORKER_BLOCKS[0]
+
+
+_RECEIVED: dict[str, _Mapping] = {}  # main process: workers' blocks mapped here, by name
+_received_lock = threading.Lock()
+
+
+def received_arrays(name: str, layout: Layout) -> dict[str, np.ndarray]:
+    """In the main process: the batch a worker sent in block `name`, as arrays viewing it."""
+    with _received_lock:
+        block = _RECEIVED.get(name)
+        if block is None:
+            for old, b in list(_RECEIVED.items()):
+                if _header(b.buf)[RETIRED] and not _header(b.buf)[BUSY]:
+                    _RECEIVED.pop(old).close()
+            block = _RECEIVED[name] = _Mapping(name)
+    return _views(block.buf, layout, _release_received, name)
+
+
+def _release_received(name: str) -> None:
+    with _received_lock:
+        block = _RECEIVED.get(name)
+        if block is not None:
+            _header(block.buf)[BUSY] = 0
+            if _header(block.buf)[RETIRED]:
+                _RECEIVED.pop(name).close()

@@ -81,7 +81,7 @@ class StoreExamples:
     def _inputs(self, i: int, chosen: np.ndarray, masks: np.ndarray) -> dict[str, np.ndarray]:
         s, t = self.store, self.transform
         if t.size is not None:  # shrink only the stored boxes: same pixels, a fraction of the work
-            masks = shrink_boxes(masks, s.bbox[chosen], t.size, t.coverage)
+            masks = shrink_boxes(masks, s.bbox[chosen], t.size, not t.rounded)
         out = t(masks, s.z[chosen], float(s.d1[i]))
         out["index"] = np.int64(i)
         return out
@@ -137,12 +137,12 @@ class GeneratedExamples:
         p, t, chosen = self.params, self.transform, self._chosen
         specs = [sample_example(p, self.seed, int(i)) for i in indices]
         size = t.size or p.image_size
-        dtype = np.dtype(np.float32 if t.coverage else np.uint8)
+        dtype = np.dtype(np.uint8 if t.rounded else np.float32)
         masks = empty((len(specs), len(chosen), *size), dtype)
         for start in range(0, len(specs), RENDER_CHUNK):
             part, into = specs[start : start + RENDER_CHUNK], masks[start : start + RENDER_CHUNK]
             if t.size is not None and not self.direct:
-                render_shrunk(part, p, size, chosen, t.coverage, into)
+                render_shrunk(part, p, size, chosen, not t.rounded, into)
             elif dtype == np.uint8:
                 render_masks(part, p, t.size, chosen, into)
             else:  # coverage of masks at their drawn size: the 0/1 masks as float32

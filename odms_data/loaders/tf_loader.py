@@ -2,7 +2,7 @@
 
     from odms_data.loaders.tf import from_generator
     ds = from_generator(512, 5000, seed=1, workers=2).prefetch(2)
-    for batch in ds: ...  # dict of tensors, batch["masks"]: (512, 10, 112, 112) uint8
+    for batch in ds: ...  # dict of tensors, batch["masks"]: (512, 10, 112, 112) float32
 
 Both wrap `numpy_loader`'s batch iterators (same arguments, same batches), whose `workers`
 processes make batches in parallel outside TensorFlow's threads.

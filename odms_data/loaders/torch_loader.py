@@ -23,6 +23,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..simulate.params import GeneratorParams
+from .shared_batches import Layout, received_arrays, worker_blocks
 from .sources import STANDARD, GeneratedExamples, StoreExamples, stream_indices
 from .transforms import PAPER_TRANSFORM, Transform
 
@@ -103,6 +104,16 @@ class StreamDataset(IterableDataset):
         info = get_worker_info()
         worker, workers = (info.id, info.num_workers) if info else (0, 1)
         epoch = self.epoch  # read when the epoch starts: iter(loader) comes after set_epoch
+        blocks = worker_blocks() if info else None
         for b in range(self.start + worker, self.batches_per_epoch, workers):
             indices = stream_indices(b, self.batch_size, self.batches_per_epoch, epoch)
-            yield to_tensors(self.examples.batch(indices))
+            if blocks is None:
+                yield to_tensors(self.examples.batch(indices))
+                continue
+            arena = blocks.arena()  # a DataLoader worker: made in a block of its own, sent without a copy
+            yield blocks.send(arena, self.examples.batch(indices, arena.empty), received_tensors)
+
+
+def received_tensors(name: str, layout: Layout) -> dict[str, torch.Tensor]:
+    """In the main process: a worker's batch (shared_batches.SharedBatch) as tensors viewing its block."""
+    return to_tensors(received_arrays(name, layout))

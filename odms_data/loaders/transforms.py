@@ -1,18 +1,17 @@
-"""The network inputs of the paper (Griffin & Corso, ECCV 2020, section 4), framework-free.
+"""The network inputs of the paper (Griffin & Corso, ECCV 2020, section 4), framework-free, as
+the authors' released code makes them (griffbr/ODMS, odn/model_utils.py).
 
 One example becomes a dict of NumPy arrays:
 
-- `masks` (n_obs, h, w): `n_obs` evenly spaced observations, `numpy.linspace(0, n-1, n_obs)`
-  truncated to integers, each resized to `size` with cv2 INTER_AREA. By default uint8 0/1 (a pixel
-  is 1 when the object covers about half of it or more: INTER_AREA's mean, rounded), a quarter of
-  the bytes of float32, to be made float on the accelerator; with `coverage=True`, float32
-  fractions of each pixel covered.
-- `dz` (n_obs,) float32: z_i - z_1, m.
+- `masks` (n_obs, h, w) float32: `n_obs` evenly spaced observations, `numpy.linspace(0, n-1,
+  n_obs)` truncated to integers, each shrunk to `size` with cv2 INTER_AREA: the fraction of each
+  pixel the object covers. With `rounded=True`, uint8 0/1 instead: the fraction rounded (1 where
+  the object covers about half the pixel or more), a quarter of the bytes, not the paper's input.
+- `dz` (n_obs - 1,) float32: z_i - z_1 for 1 < i <= n, m (the paper's dz_2 .. dz_n).
 - `zbar` (n_obs - 2,) float32: (z_i - z_1) / (z_n - z_1) for 1 < i < n.
 - labels, float32 scalars: `d1` (m), `d1_norm` = d1 / (z_n - z_1) and `scale` = d1 / d_n, the
   relative scale, with d_n = d1 + z_n - z_1 (a still object, the camera moving along its axis).
-- `radial` (1, h, w) float32 when asked for: 1 at the image centre falling linearly with the
-  distance from it to 0 at the corner pixels.
+- `radial` (1, h, w) float32 when asked for: the authors' radial template (radial_image).
 """
 
 from __future__ import annotations
@@ -33,6 +32,7 @@ cv2.setNumThreads(1)
 
 PAPER_SIZE = (112, 112)
 LABELS = ("d1", "d1_norm", "scale")
+TEMPLATE_SIZE = 224  # the released radial template (data/misc/radial2D.png) is 224x224
 
 
 def observation_indices(n: int, n_obs: int) -> np.ndarray:
@@ -43,21 +43,28 @@ def observation_indices(n: int, n_obs: int) -> np.ndarray:
 
 
 def distances(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """dz = z_i - z_1 (all i) and zbar = (z_i - z_1) / (z_n - z_1) (1 < i < n)."""
+    """dz = z_i - z_1 (1 < i <= n) and zbar = (z_i - z_1) / (z_n - z_1) (1 < i < n)."""
     z = np.asarray(z, np.float64)
-    dz = z - z[0]
-    return dz.astype(np.float32), (dz[1:-1] / dz[-1]).astype(np.float32)
+    dz = z[1:] - z[0]
+    return dz.astype(np.float32), (dz[:-1] / dz[-1]).astype(np.float32)
+
+
+def radial_template() -> np.ndarray:
+    """The authors' 224x224 8-bit radial image: round(255 * (1 - r / (112 sqrt 2))), clipped at
+    0, r the distance of pixel (x, y) from pixel (112, 112). It is their radial2D.png pixel for
+    pixel (tests/loaders/test_loaders_transforms.py)."""
+    c = TEMPLATE_SIZE // 2
+    y, x = np.mgrid[:TEMPLATE_SIZE, :TEMPLATE_SIZE]
+    r = np.hypot(y - c, x - c)
+    return np.clip(np.round(255 * (1 - r / (c * np.sqrt(2)))), 0, 255).astype(np.uint8)
 
 
 @lru_cache(maxsize=8)
 def radial_image(size: tuple[int, int]) -> np.ndarray:
-    """(h, w) float32: 1 at the centre, falling linearly with the distance to 0 at the corners."""
+    """(h, w) float32: the radial template resized to `size` by cv2.resize (its default, linear
+    interpolation), divided by 255, as the authors' code loads it."""
     h, w = size
-    y = np.arange(h) - (h - 1) / 2
-    x = np.arange(w) - (w - 1) / 2
-    r = np.hypot(y[:, None], x[None, :])
-    corner = r.max()
-    return (1 - r / corner if corner > 0 else np.ones((h, w))).astype(np.float32)
+    return (cv2.resize(radial_template(), (w, h)) / 255).astype(np.float32)
 
 
 @dataclass(frozen=True)
@@ -65,14 +72,14 @@ class Transform:
     """Masks, camera positions and label of one example to the network inputs.
 
     `size` (h, w) of the masks given to the network (None: keep the store's size); `n_obs`
-    observations (None: all of the example's); `radial` adds the radial image; `coverage`
-    gives float32 covered fractions instead of uint8 0/1 masks.
+    observations (None: all of the example's); `radial` adds the radial image; `rounded` gives
+    uint8 0/1 masks (the covered fractions rounded) instead of the paper's float32 fractions.
     """
 
     size: tuple[int, int] | None = PAPER_SIZE
     n_obs: int | None = None
     radial: bool = False
-    coverage: bool = False
+    rounded: bool = False
 
     def __post_init__(self) -> None:
         if self.size is not None and (len(self.size) != 2 or min(self.size) < 1):
@@ -87,7 +94,7 @@ class Transform:
     def __call__(self, masks: np.ndarray, z: np.ndarray, d1: float) -> dict[str, Any]:
         """Inputs from the already selected observations: masks (k, H, W), z (k,), label d1."""
         size = self.size or masks.shape[1:]
-        return {"masks": resize_masks(masks, size, self.coverage), **self.vectors(z, d1, size)}
+        return {"masks": resize_masks(masks, size, not self.rounded), **self.vectors(z, d1, size)}
 
     def vectors(self, z: np.ndarray, d1: float, size: tuple[int, int]) -> dict[str, Any]:
         """Every input but the masks (of shape `size`), from the selected z (k,) and label d1."""
@@ -98,4 +105,4 @@ class Transform:
         return out
 
 
-PAPER_TRANSFORM = Transform()  # 112x112 uint8 masks, every observation, no radial image
+PAPER_TRANSFORM = Transform()  # 112x112 float32 masks, every observation, no radial image

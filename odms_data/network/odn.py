@@ -84,8 +84,9 @@ def build(v: Variant, n_obs: int, radial: bool) -> ODN:
 
 
 def transform(n_obs: int, radial: bool) -> Transform:
-    """The loaders' transform that makes ODN's inputs: the paper's masks (float coverage)."""
-    return Transform(size=PAPER_SIZE, n_obs=n_obs, radial=radial, coverage=True)
+    """The loaders' transform that makes ODN's inputs: the default one (the paper's float32
+    coverage masks at 112x112, dz_2..dz_n, zbar), for n_obs observations."""
+    return Transform(size=PAPER_SIZE, n_obs=n_obs, radial=radial)
 
 
 def inputs(batch: dict[str, torch.Tensor], v: Variant) -> tuple[torch.Tensor, torch.Tensor]:
@@ -95,8 +96,4 @@ def inputs(batch: dict[str, torch.Tensor], v: Variant) -> tuple[torch.Tensor, to
     if "radial" in batch:
         images = torch.cat([images, batch["radial"]], 1)
     images = images.contiguous(memory_format=torch.channels_last)
-    distances = batch[v.distances]
-    # MAIN-COMPAT: until the paper's transform lands on main, dz carries dz_1 = 0 first; drop it.
-    if v.distances == "dz":
-        distances = distances[:, 1:]
-    return images, distances
+    return images, batch[v.distances]

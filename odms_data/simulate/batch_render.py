@@ -6,6 +6,8 @@ the slow way (render.py, shrink.py).
 - `render_shrunk`: what `resize_masks(render.render_masks(spec, params), size)` gives (the
   full-size mask shrunk with INTER_AREA, as a store read through the loaders), drawing only each
   object's box at full size (see shrink.py for why that gives the same pixels).
+- `render_boxes`: what `render.render_frame` draws into each full-size frame and where (the
+  generator writing a store).
 
 The per-frame arithmetic of `render.render_frame` is done once for all frames of all examples,
 in the same order of operations (so the same floats), and frames are stacked as rows of one
@@ -47,17 +49,19 @@ class _Geometry:
     def polygon(self, f: int) -> np.ndarray:
         return self.poly[self.starts[f] : self.starts[f + 1]]
 
-    def mark(self, image: np.ndarray, frames: np.ndarray, offsets: np.ndarray) -> None:
-        """Mark the contour pixels of `frames` in the C-contiguous `image`, each frame's canvas
-        corner put at its (x, y) offset (offsets: (F, 2); rows of frames not drawn are ignored)."""
-        chosen = np.zeros(len(self.starts) - 1, bool)
-        chosen[frames] = True
-        frames = np.flatnonzero(chosen)
-        vertices = np.repeat(chosen, np.diff(self.starts))
-        starts = np.concatenate([[0], np.cumsum(np.diff(self.starts)[frames])])
-        W = image.shape[1]
-        base = offsets[frames, 1] * W + offsets[frames, 0]
-        image.ravel()[contour_pixels(self.poly[vertices], starts, W, base)] = 1
+    def gather(self, frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The vertices of `frames`, in that order, and where each frame's begin (len + 1)."""
+        lengths = np.diff(self.starts)[frames]
+        starts = np.concatenate([[0], np.cumsum(lengths)])
+        rows = np.arange(starts[-1]) + np.repeat(self.starts[frames] - starts[:-1], lengths)
+        return self.poly[rows], starts
+
+
+def _mark(image: np.ndarray, poly: np.ndarray, starts: np.ndarray, offsets: np.ndarray) -> None:
+    """Mark the contour pixels of the frames in `poly` (starts as in contour_pixels) in the
+    C-contiguous `image`, each frame's canvas corner put at its (x, y) offset (offsets: (k, 2))."""
+    W = image.shape[1]
+    image.ravel()[contour_pixels(poly, starts, W, offsets[:, 1] * W + offsets[:, 0])] = 1
 
 
 def _geometry(
@@ -120,13 +124,39 @@ def render_masks(
     if inside.any():  # frame f is rows f * H ... of out seen as one (examples * k * H, W) image
         rows = np.arange(len(inside)) * H
         stacked = out.reshape(-1, W)
-        g.mark(stacked, np.flatnonzero(inside), g.lo + np.stack([np.zeros_like(rows), rows], axis=1))
-        for f in np.flatnonzero(inside):  # each frame's canvas, which has an empty border
+        drawn = np.flatnonzero(inside)
+        corners = g.lo + np.stack([np.zeros_like(rows), rows], axis=1)
+        _mark(stacked, *g.gather(drawn), corners[drawn])
+        for f in drawn:  # each frame's canvas, which has an empty border
             (x0, y0), (x1, y1) = g.lo[f], g.hi[f]
             fill_enclosed(stacked[rows[f] + y0 : rows[f] + y1, x0:x1])
     for f in np.flatnonzero(~inside):
         e, j = divmod(int(f), n)
         render_frame(specs[e], params, int(frames[j]), out[e, j])
+    return out
+
+
+def render_boxes(
+    specs: Sequence[ExampleSpec], params: GeneratorParams
+) -> list[tuple[np.ndarray, int, int] | None]:
+    """For every frame of every example (example-major): the pixels `render.render_frame` draws
+    into a full-size frame, as (the drawn box, x0, y0), or None where it draws nothing."""
+    H, W = params.image_size
+    g = _geometry(specs, params, _frames(specs, None), (H, W))
+    size = g.hi - g.lo
+    tops = np.concatenate([[0], np.cumsum(size[:, 1])])
+    stacked = np.zeros((int(tops[-1]), int(size[:, 0].max())), np.uint8)  # the canvases, top to bottom
+    _mark(stacked, g.poly, g.starts, np.stack([np.zeros_like(tops[:-1]), tops[:-1]], axis=1))
+    clip_lo, clip_hi = np.maximum(g.lo, 0), np.minimum(g.hi, [W, H])
+    out: list[tuple[np.ndarray, int, int] | None] = []
+    for f in range(len(size)):
+        canvas: np.ndarray = stacked[tops[f] : tops[f + 1], : size[f, 0]]
+        fill_enclosed(canvas)
+        if g.k[f]:
+            canvas = (cv2.dilate if g.dilate[f] else cv2.erode)(canvas, CROSS, iterations=int(g.k[f]))
+        (x0, y0), (cx0, cy0), (cx1, cy1) = g.lo[f], clip_lo[f], clip_hi[f]
+        drawn = cx0 < cx1 and cy0 < cy1
+        out.append((canvas[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0], int(cx0), int(cy0)) if drawn else None)
     return out
 
 
@@ -172,14 +202,14 @@ def render_shrunk(
     groups = np.flatnonzero(np.diff(widths, prepend=-1, append=-1))
     above = np.cumsum(heights) - heights
     top = above - np.repeat(above[groups[:-1]], np.diff(groups))
-    offsets = np.zeros_like(g.lo)
-    offsets[tiled] = g.lo[tiled] - tile_lo[tiled] + np.stack([np.zeros_like(top), top], axis=1)
+    offsets = g.lo[tiled] - tile_lo[tiled] + np.stack([np.zeros_like(top), top], axis=1)
+    poly, starts = g.gather(tiled)
     for a, b in zip(groups[:-1], groups[1:], strict=True):
         tiles, width = tiled[a:b], int(widths[a])
         canvas: np.ndarray = np.zeros((int(top[b - 1] + heights[b - 1]), width), np.uint8)
         # render_frame's canvas lies inside the tile with an empty margin, so drawing and
         # perturbing on the tile gives the same pixels as on the canvas
-        g.mark(canvas, tiles, offsets)
+        _mark(canvas, poly[starts[a] : starts[b]], starts[a : b + 1] - starts[a], offsets[a:b])
         fill_enclosed(canvas, top[a:b])
         for t in np.flatnonzero(g.k[tiles]) + a:
             band = canvas[top[t] : top[t] + heights[t]]

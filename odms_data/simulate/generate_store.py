@@ -15,7 +15,7 @@ from concurrent.futures import Future
 import numpy as np
 
 from ..errors import InputError
-from ..parallel import ordered_map, spawn_pool
+from ..parallel import cores, ordered_map, spawn_pool, workers_for
 from ..store.digest import StoreDigest
 from ..store.format import StoreAttrs
 from ..store.writer import Layout, StoreWriter
@@ -23,6 +23,13 @@ from .params import DEFAULT_EXAMPLES_PER_SHARD, GENERATOR_VERSION, GeneratorPara
 from .shards import SOURCE, ShardResult, ShardTask, example_ids, run_shard
 
 Progress = Callable[[int], None]
+EXAMPLE_S, MEGAPIXEL_S = 1e-4, 2.5e-4  # generation's CPU-seconds per example and per megapixel of frames
+
+
+def work_seconds(count: int, params: GeneratorParams) -> float:
+    """About how many CPU-seconds generating `count` examples takes (to choose the workers)."""
+    H, W = params.image_size
+    return count * (EXAMPLE_S + params.n_obs * H * W / 1e6 * MEGAPIXEL_S)
 
 
 def _run_tasks(tasks: list[ShardTask], workers: int, progress: Progress | None) -> Iterator[ShardResult]:
@@ -51,7 +58,7 @@ def generate(
     split: str = "generated",
     preset: str | None = None,
     fmt: str | None = None,
-    workers: int = 1,
+    workers: int | None = None,
     examples_per_shard: int = DEFAULT_EXAMPLES_PER_SHARD,
     overwrite: bool = False,
     progress: Progress | None = None,
@@ -59,13 +66,16 @@ def generate(
 ) -> StoreAttrs:
     """Generate `count` examples into a new store at `path`; returns its attributes.
 
-    With `scheduler` (a Dask scheduler address) the shards run on that cluster instead of
-    `workers` local processes; the store is the same.
+    `workers` local processes (1: in this process); by default as many as the amount of work is
+    worth, up to one per core (parallel.workers_for). With `scheduler` (a Dask scheduler address)
+    the shards run on that cluster instead. The store is the same either way.
     """
     if count < 1:
         raise InputError(f"count must be at least 1, got {count}")
     if seed < 0:
         raise InputError(f"seed must be a non-negative integer, got {seed}")
+    if workers is not None and workers < 1:
+        raise InputError(f"workers must be at least 1, got {workers}")
     if examples_per_shard < 1:
         raise InputError(f"examples per shard must be at least 1, got {examples_per_shard}")
     n, (H, W) = params.n_obs, params.image_size
@@ -84,7 +94,9 @@ def generate(
             for s in range(0, count, eps)
         ]
         if scheduler is None:
-            results = _run_tasks(tasks, workers, progress)
+            if workers is None:
+                workers = workers_for(work_seconds(count, params), cores())
+            results = _run_tasks(tasks, min(workers, len(tasks)), progress)
         else:
             from .dask_runner import run_tasks
 

@@ -6,8 +6,8 @@ object when the closed contour passes through it, or when it is enclosed by such
 4-connected to the canvas border through pixels the contour misses. So a silhouette has no holes,
 even where the contour crosses itself. The released generator marks the pixel of each of 2,000
 points per Bezier segment and fills the holes; this marks every pixel each straight edge of the
-contour polygon passes through (where an edge passes exactly through a pixel corner, the pixels
-on both sides of either grid line there are marked too).
+contour polygon passes through, computed in float64 (where an edge runs exactly through a pixel
+corner, its direction decides which of the pixels meeting there it marks).
 """
 
 from __future__ import annotations
@@ -28,9 +28,8 @@ def contour_pixels(
     through, for an image `width` pixels wide; a pixel may appear more than once.
 
     `poly` (P, 2) holds the vertices x, y of every polygon, polygon j being rows starts[j] to
-    starts[j + 1] - 1, closed by an edge from its last vertex back to its first. Where an edge
-    crosses a grid line, the pixels on both sides of the crossing are marked: every pixel an
-    edge passes through is entered or left that way, unless the whole polygon lies in one pixel.
+    starts[j + 1] - 1, closed by an edge from its last vertex back to its first. Going round a
+    polygon from its first vertex, each grid line an edge crosses leads into the next pixel.
     """
     P = len(poly)
     succ = np.arange(1, P + 1)
@@ -45,17 +44,14 @@ def contour_pixels(
     line = np.arange(len(edge)) + np.repeat(first - (np.cumsum(count) - count), count)
     slope = (nxt[:, ::-1].T.ravel() - b0)[edge] / (a1 - a0)[edge]
     across = np.floor(b0[edge] + (line - a0[edge]) * slope)
+    line -= (a1 < a0)[edge]  # moving down the axis, the pixel beyond line X is X - 1
     nx = int(count[:P].sum())
     index = np.concatenate((across[:nx] * width + line[:nx], line[nx:] * width + across[nx:]))
+    start = np.floor(poly[starts[:-1]])  # every other pixel is entered across a grid line
+    index = np.concatenate((start[:, 1] * width + start[:, 0], index))
     if base is not None:
-        index += np.tile(np.repeat(base, np.diff(starts)), 2)[edge]
-    index = index.astype(np.int64)
-    corner = np.floor(poly[starts[:-1]])  # a polygon inside a single pixel crosses no grid line
-    single = (corner[:, 1] * width + corner[:, 0] + (0 if base is None else base)).astype(np.int64)
-    before = index.copy()  # the pixels before each crossing: left of x = X, above y = Y
-    before[:nx] -= 1
-    before[nx:] -= width
-    return np.concatenate((single, before, index))
+        index += np.concatenate((base, np.tile(np.repeat(base, np.diff(starts)), 2)[edge]))
+    return index.astype(np.int64)
 
 
 def fill_enclosed(canvas: np.ndarray, parts: np.ndarray | None = None) -> None:

@@ -8,16 +8,19 @@ store path, so any executor (local processes, a Dask cluster) gives the same sto
 
 from __future__ import annotations
 
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..store.digest import example_digest, frame_digests
-from ..store.masks import FrameStats, pack, packed_width
-from ..store.writer import write_shard_masks
+from ..store.digest import example_digest, padded_frame_digest
+from ..store.masks import FrameStats, packed_width
+from ..store.shard_writer import ShardChunks
+from .batch_render import render_boxes
 from .object_model import sample_example
 from .params import GeneratorParams
-from .render import render_frame
 
 SOURCE = "generated"
 
@@ -53,31 +56,59 @@ class ShardResult:
 
 
 def run_shard(task: ShardTask) -> ShardResult:
-    """Generate and write one shard; pure in (params, seed, indices) up to the store path."""
+    """Generate and write one shard; pure in (params, seed, indices) up to the store path.
+
+    Allocation-light: each example is drawn into this thread's reused frame and packed-example
+    buffers (zeroed again where drawn), compressed as soon as it is packed, and each frame's
+    digest hashes only its drawn rows and the zero rows below them (`padded_frame_digest`).
+    """
     p = task.params
     n, (H, W) = p.n_obs, p.image_size
     k = task.stop - task.start
-    packed = np.zeros((k * n, H, packed_width(W)), np.uint8)
     z = np.empty(k * n)
     stats = FrameStats.empty(k * n)
     digests = []
     ids = example_ids(task.split, task.count, task.start, task.stop)
-    frame = np.zeros((H, W), np.uint8)
-    for e, index in enumerate(range(task.start, task.stop)):
-        spec = sample_example(p, task.seed, index)
-        rows = slice(e * n, (e + 1) * n)
-        z[rows] = spec.z
-        for i in range(n):
-            box = render_frame(spec, p, i, frame)
-            if box is None:
-                continue
-            x0, y0, x1, y1 = box
-            f = e * n + i
-            stats.set(f, frame[y0:y1, x0:x1], x0, y0)
-            packed[f, y0:y1] = pack(frame[y0:y1])
-            frame[y0:y1, x0:x1] = 0
-        fd = frame_digests(packed[rows], z[rows], z[rows])
-        digests.append(example_digest(ids[e], SOURCE, spec.z[0], fd))
+    chunks = ShardChunks(task.fmt, n)
+    with _buffers(n, H, W) as (frame, packed):
+        for e, index in enumerate(range(task.start, task.stop)):
+            spec = sample_example(p, task.seed, index)
+            z[e * n : (e + 1) * n] = spec.z
+            drawn, frame_digests = [], []
+            for i, box in enumerate(render_boxes([spec], p)):  # render.render_frame's pixels
+                x0, y0, x1, y1 = 0, 0, 0, 0
+                if box is not None:
+                    pixels, x0, y0 = box
+                    y1, x1 = y0 + pixels.shape[0], x0 + pixels.shape[1]
+                    stats.set(e * n + i, pixels, x0, y0)
+                    frame[y0:y1, x0:x1] = pixels
+                    b0, b1 = x0 // 8, -(-x1 // 8)  # the bytes the box's columns fall in
+                    packed[i, y0:y1, b0:b1] = np.packbits(frame[y0:y1, 8 * b0 : 8 * b1], axis=-1)
+                    frame[y0:y1, x0:x1] = 0
+                    drawn.append(packed[i, y0:y1])
+                frame_digests.append(padded_frame_digest(packed[i, y0:y1], y0, H, spec.z[i], spec.z[i]))
+            chunks.add(packed)
+            for rows in drawn:
+                rows[...] = 0
+            fd = np.frombuffer(b"".join(frame_digests), np.uint8).reshape(n, 32)
+            digests.append(example_digest(ids[e], SOURCE, spec.z[0], fd))
     result = ShardResult(task.start, task.stop, z, stats, digests)
-    result.deflated_chunks = write_shard_masks(task.path, task.fmt, task.start * n, packed, n)
+    result.deflated_chunks = chunks.write(task.path, task.start * n)
     return result
+
+
+_reused = threading.local()  # per thread: a Dask worker may run several tasks at once
+
+
+@contextmanager
+def _buffers(n: int, H: int, W: int) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """This thread's zeroed (H, W) frame and (n, H, ceil(W/8)) packed-example buffers, made once
+    per shape and reused: with many large temporaries, a process whose allocator returns freed
+    memory eagerly (a Dask nanny sets MALLOC_TRIM_THRESHOLD_) spends its time on page faults.
+    The caller leaves them zeroed; after an error they are dropped."""
+    key = (n, H, W)
+    if getattr(_reused, "key", None) != key:
+        _reused.buffers = np.zeros((H, W), np.uint8), np.zeros((n, H, packed_width(W)), np.uint8)
+    buffers, _reused.key = _reused.buffers, None  # taken: a failure below leaves them dropped
+    yield buffers
+    _reused.key = key

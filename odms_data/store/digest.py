@@ -8,12 +8,14 @@ from __future__ import annotations
 import hashlib
 import struct
 from collections.abc import Callable, Iterable
+from functools import lru_cache
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 DIGEST_PREFIX = b"odms-store-content/1"
 BLOCK_FRAMES = 1024  # frames read at a time when streaming a store
+CANONICAL_NAN = bytes.fromhex("000000000000f87f")  # how every NaN is hashed: 0x7ff8000000000000
 
 if TYPE_CHECKING:
     from .reader import Store
@@ -36,6 +38,31 @@ def frame_digests(packed: np.ndarray, z: np.ndarray, depth: np.ndarray) -> np.nd
         h.update(db[8 * i : 8 * i + 8])
         out[i] = np.frombuffer(h.digest(), np.uint8)
     return out
+
+
+@lru_cache(maxsize=4)
+def _zero_rows(height: int, row_bytes: int) -> tuple[list, memoryview]:
+    """SHA-256 states after 0..height zero rows of `row_bytes`, and the bytes of height zero rows."""
+    zeros = memoryview(bytes(height * row_bytes))
+    h, states = hashlib.sha256(), []
+    for _ in range(height + 1):
+        states.append(h.copy())
+        h.update(zeros[:row_bytes])
+    return states, zeros
+
+
+def padded_frame_digest(rows: np.ndarray, y0: int, height: int, z: float, depth: float) -> bytes:
+    """The frame digest (`frame_digests`) of a packed frame of `height` rows that is zero but for
+    `rows` (k, row_bytes), its rows y0 .. y0 + k, without building the frame: the state after the
+    zero rows above is computed once and copied, the zero rows below come from a shared buffer."""
+    k, row_bytes = rows.shape
+    states, zeros = _zero_rows(height, row_bytes)
+    h = states[y0].copy()
+    h.update(np.ascontiguousarray(rows).data)
+    h.update(zeros[: (height - y0 - k) * row_bytes])
+    for v in (z, depth):
+        h.update(struct.pack("<d", v) if v == v else CANONICAL_NAN)
+    return h.digest()
 
 
 def example_digest(example_id: str, source: str, d1: float, frames: np.ndarray) -> bytes:

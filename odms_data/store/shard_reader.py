@@ -2,62 +2,38 @@
 
 zarr spends about 2 ms of CPU per read call whatever its size, most of the cost of reading one
 example; reading the shard index and the chunk bytes directly takes about a sixth of that. Only
-the layout StoreWriter makes is read this way (sharding_indexed along frames, inner codecs bytes +
-zstd, index bytes + crc32c at the end, '/'-separated chunk keys); `ShardReader.open` returns None
+the layout StoreWriter makes is read this way (shard_layout.py); `ShardReader.open` returns None
 for anything else, which `Store` then reads through zarr.
 """
 
 from __future__ import annotations
 
-import json
-from pathlib import Path
-
 import numpy as np
 
 from ..errors import StoreError
-from .backends import is_url
+from .shard_layout import ShardLayout
 
 MISSING = np.uint64(2**64 - 1)
 
 
 class ShardReader:
-    def __init__(self, root: Path, shape: tuple[int, ...], chunk: int, shard: int) -> None:
+    def __init__(self, layout: ShardLayout) -> None:
         import google_crc32c
         from numcodecs import Zstd
 
-        self.root, self.shape, self.chunk, self.shard = root, shape, chunk, shard
-        self.per_shard = shard // chunk
-        self.frame_bytes = int(np.prod(shape[1:]))
+        self.layout, self.shape, self.chunk = layout, layout.shape, layout.chunk
+        self.per_shard = layout.per_shard
+        self.frame_bytes = int(np.prod(self.shape[1:]))
         self._zstd, self._crc = Zstd(), google_crc32c.value
 
     @classmethod
     def open(cls, store_path: str) -> ShardReader | None:
-        if is_url(store_path):
-            return None
-        root = Path(store_path) / "masks"
-        try:
-            meta = json.loads((root / "zarr.json").read_text())
-            (codec,) = meta["codecs"]
-            conf = codec["configuration"]
-            inner = [c["name"] for c in conf["codecs"]]
-            index = [c["name"] for c in conf["index_codecs"]]
-            outer = meta["chunk_grid"]["configuration"]["chunk_shape"]
-            sep = meta["chunk_key_encoding"]["configuration"]["separator"]
-            shape = tuple(meta["shape"])
-            chunk, shard = conf["chunk_shape"][0], outer[0]
-            ok = (codec["name"] == "sharding_indexed" and inner == ["bytes", "zstd"]
-                  and index == ["bytes", "crc32c"] and conf["index_location"] == "end" and sep == "/"
-                  and meta["data_type"] == "uint8" and len(shape) == 3
-                  and list(outer[1:]) == list(shape[1:]) and list(conf["chunk_shape"][1:]) == list(shape[1:])
-                  and meta["fill_value"] == 0 and all(type(v) is int for v in (*shape, chunk, shard))
-                  and 0 < chunk <= shard and shard % chunk == 0)
-        except Exception:  # anything unexpected: let zarr read it (and report what is wrong)
-            return None
-        return cls(root, shape, chunk, shard) if ok else None
+        layout = ShardLayout.of(store_path)
+        return cls(layout) if layout else None
 
     def _chunks(self, s: int, ks: range) -> list[np.ndarray]:
         """Packed frames of chunks ks of shard s (full chunk length; missing chunks are zeros)."""
-        path = self.root / "c" / str(s) / "0" / "0"
+        path = self.layout.shard_path(s)
         out_bytes = self.chunk * self.frame_bytes
         zeros = np.zeros(out_bytes, np.uint8)
         try:

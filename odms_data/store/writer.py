@@ -11,16 +11,16 @@ from __future__ import annotations
 import fcntl
 import os
 import shutil
-import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError, StoreError, StoreExistsError, StoreLockedError
-from .backends import GZIP_LEVEL, Backend, detect_format, is_url, open_backend, storage_options
+from .backends import Backend, detect_format, is_url, open_backend
 from .format import EXAMPLE_ARRAYS, FRAME_ARRAYS, StoreAttrs, encode_strings
 from .masks import FrameStats, packed_width
+from .shard_writer import ShardChunks
 
 
 @dataclass(frozen=True)
@@ -211,26 +211,14 @@ def write_shard_masks(
 ) -> list[bytes]:
     """Store a worker's whole shard of packed masks, starting at the shard boundary `start`.
 
-    Zarr: written in place afresh, deleting first what an interrupted earlier attempt may have
-    left (zarr reads an existing shard back to merge into it); returns []. HDF5 (one writer
-    only): returns the deflated chunks, zero-padded to full length, for `write_mask_chunk`.
+    Zarr: written afresh in one store write (shard_writer.py), replacing what an interrupted
+    earlier attempt may have left; returns []. HDF5 (one writer only): returns the deflated
+    chunks, zero-padded to full length, for `write_mask_chunk`.
     """
-    if fmt == "zarr":
-        import zarr
-        from zarr.core.sync import sync
-
-        masks = zarr.open_array(store=path, path="masks", mode="r+", storage_options=storage_options(path))
-        key = masks.metadata.encode_chunk_key((start // masks.shards[0], 0, 0))  # type: ignore[index]  # masks is sharded
-        sync(masks.store.delete(f"{masks.path}/{key}"))
-        masks.with_config({"write_empty_chunks": True})[start : start + len(packed)] = packed
-        return []
-    chunks = []
+    chunks = ShardChunks(fmt, frames_per_chunk)
     for c in range(0, len(packed), frames_per_chunk):
-        block = np.zeros((frames_per_chunk, *packed.shape[1:]), np.uint8)
-        part = packed[c : c + frames_per_chunk]
-        block[: len(part)] = part
-        chunks.append(zlib.compress(block.tobytes(), GZIP_LEVEL))
-    return chunks
+        chunks.add(packed[c : c + frames_per_chunk])
+    return chunks.write(path, start)
 
 
 def _fit(matrix: np.ndarray, width: int, what: str) -> np.ndarray:

@@ -34,7 +34,7 @@ def test_store_source_shuffled_batches_match_the_store_and_ignore_workers(tmp_pa
     assert _equal(one, two)
     rows = np.concatenate([b["index"] for b in one])
     assert sorted(rows.tolist()) == list(range(COUNT)) and rows.tolist() != list(range(COUNT))
-    assert one[0]["masks"].shape == (5, 5, 56, 56) and one[0]["masks"].dtype == np.uint8
+    assert one[0]["masks"].shape == (5, 5, 56, 56) and one[0]["masks"].dtype == np.float32
     first = source[int(rows[0])]
     assert all(np.array_equal(one[0][k][0], first[k]) for k in first)
     reseeded = grain.MapDataset.source(source).seed(8).shuffle().batch(5)

@@ -27,14 +27,14 @@ def test_store_batches_shapes_and_labels(store_path):
     batches = list(store_batches(store_path, 10, transform=t))
     assert [len(b["index"]) for b in batches] == [10, 10, 4]
     b = batches[0]
-    assert b["masks"].shape == (10, 4, 56, 56) and b["masks"].dtype == np.uint8
-    assert b["dz"].shape == (10, 4) and b["zbar"].shape == (10, 2) and b["radial"].shape == (10, 1, 56, 56)
+    assert b["masks"].shape == (10, 4, 56, 56) and b["masks"].dtype == np.float32
+    assert b["dz"].shape == (10, 3) and b["zbar"].shape == (10, 2) and b["radial"].shape == (10, 1, 56, 56)
     assert all(b[k].dtype == np.float32 for k in ("dz", "zbar", "d1", "d1_norm", "scale"))
     with open_store(store_path) as s:
         d1 = np.concatenate([b["d1"] for b in batches])
         np.testing.assert_array_equal(d1, s.d1.astype(np.float32))
         z = s.z[s.frame_index[:, [0, 3, 6, 9]]]
-        np.testing.assert_allclose(np.concatenate([b["dz"] for b in batches]), z - z[:, :1], atol=1e-6)
+        np.testing.assert_allclose(np.concatenate([b["dz"] for b in batches]), z[:, 1:] - z[:, :1], atol=1e-6)
         ex = s.example(3)
     masks = t(ex.masks[[0, 3, 6, 9]], ex.z[[0, 3, 6, 9]], ex.d1)["masks"]
     np.testing.assert_array_equal(batches[0]["masks"][3], masks)
@@ -73,9 +73,14 @@ def test_streamed_example_is_the_generators():
     ex = GeneratedExamples(params, 4, Transform(n_obs=5)).example(7)
     spec = sample_example(params, 4, 7)
     chosen = [0, 2, 4, 6, 9]
-    np.testing.assert_array_equal(ex["masks"], resize_masks(render_masks(spec, params)[chosen], (112, 112)))
+    full = render_masks(spec, params)[chosen]
+    np.testing.assert_array_equal(ex["masks"], resize_masks(full, (112, 112), coverage=True))
+    assert ex["masks"].dtype == np.float32 and ((ex["masks"] > 0) & (ex["masks"] < 1)).any()  # fractions
     assert ex["d1"] == np.float32(spec.z[0]) and ex["index"] == 7
-    np.testing.assert_allclose(ex["dz"], spec.z[chosen] - spec.z[0], atol=1e-6)
+    np.testing.assert_allclose(ex["dz"], spec.z[chosen][1:] - spec.z[0], atol=1e-6)
+    rounded = GeneratedExamples(params, 4, Transform(n_obs=5, rounded=True)).example(7)
+    np.testing.assert_array_equal(rounded["masks"], resize_masks(full, (112, 112)))
+    assert rounded["masks"].dtype == np.uint8
     direct = GeneratedExamples(params, 4, Transform(n_obs=5), direct=True).example(7)
     np.testing.assert_array_equal(direct["masks"], render_masks(spec, params, (112, 112))[chosen])
 

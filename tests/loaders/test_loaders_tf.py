@@ -15,7 +15,7 @@ def test_from_store(tmp_path):
     path = make_store(tmp_path, "zarr")
     ds = from_store(path, 10, transform=Transform(size=(56, 56), n_obs=4))
     batches = list(ds.as_numpy_iterator())
-    assert batches[0]["masks"].shape == (10, 4, 56, 56) and batches[0]["masks"].dtype == np.uint8
+    assert batches[0]["masks"].shape == (10, 4, 56, 56) and batches[0]["masks"].dtype == np.float32
     assert ds.element_spec["d1"].dtype == tf.float32
     assert np.concatenate([b["index"] for b in batches]).tolist() == list(range(COUNT))
     with open_store(path) as s:

@@ -31,7 +31,7 @@ def _indices(loader) -> list[int]:
 
 
 def test_store_dataset(store_path):
-    ds = StoreDataset(store_path, Transform(size=(56, 56), n_obs=5))
+    ds = StoreDataset(store_path, Transform(size=(56, 56), n_obs=5, rounded=True))
     loader = two_workers(ds, batch_size=8)
     batches = list(loader)
     b = batches[0]
@@ -62,11 +62,35 @@ def test_stream_dataset_workers_and_epochs():
     one = list(DataLoader(ds, batch_size=None))
     assert _indices(two) == list(range(32))  # no duplicates, none missing
     assert all(torch.equal(x[k], y[k]) for x, y in zip(two, one, strict=True) for k in x)
-    assert two[0]["masks"].shape == (8, 6, 112, 112) and two[0]["masks"].dtype == torch.uint8
+    assert two[0]["masks"].shape == (8, 6, 112, 112) and two[0]["masks"].dtype == torch.float32
+    assert two[0]["dz"].shape == (8, 5) and two[0]["zbar"].shape == (8, 4)
     ds.set_epoch(1)
     assert _indices(two_workers(ds, batch_size=None)) == list(range(32, 64))
     again = StreamDataset(8, 4, params=GeneratorParams(n_obs=6), seed=3)
     assert torch.equal(next(iter(again))["masks"], two[0]["masks"])
+
+
+def test_stream_workers_hand_batches_over_in_reused_blocks_without_copies():
+    """Each batch from a DataLoader worker views a block mapped from that worker; a block dropped by
+    the training loop carries a later batch, epoch after epoch with persistent workers, so 48
+    batches need a handful of blocks."""
+    from odms_data.loaders import shared_batches
+
+    ds = StreamDataset(4, 24, params=GeneratorParams(n_obs=3), seed=5, transform=Transform(size=(32, 32)))
+    single = list(DataLoader(ds, batch_size=None))
+    loader = two_workers(ds, batch_size=None, persistent_workers=True)
+    before, seen = set(shared_batches._RECEIVED), set()
+    for _ in range(2):
+        for batch, expected in zip(loader, single, strict=True):
+            assert all(torch.equal(batch[k], expected[k]) for k in batch)
+            spans = {name: (np.frombuffer(b.buf, np.uint8).ctypes.data, len(b.buf))
+                     for name, b in shared_batches._RECEIVED.items() if name not in before}
+            inside = [name for name, (start, size) in spans.items()
+                      if start <= batch["masks"].data_ptr() < start + size]
+            assert len(inside) == 1  # a view of one worker's block, not a copy
+            seen.update(inside)
+            del batch
+    assert 2 <= len(seen) <= 8  # per worker: prefetch (2), the one being made, the one held here
 
 
 def test_stream_dataset_epochs_reach_persistent_workers():

@@ -3,6 +3,9 @@ generator."""
 
 from __future__ import annotations
 
+import hashlib
+
+import cv2
 import numpy as np
 import pytest
 
@@ -13,11 +16,13 @@ from odms_data.loaders.transforms import (
     distances,
     observation_indices,
     radial_image,
+    radial_template,
     resize_masks,
 )
-from odms_data.simulate.batch_render import render_masks, render_shrunk
+from odms_data.simulate.batch_render import render_boxes, render_masks, render_shrunk
 from odms_data.simulate.object_model import sample_example
 from odms_data.simulate.params import GeneratorParams, preset
+from odms_data.simulate.render import render_frame
 from odms_data.simulate.render import render_masks as generator_render
 from odms_data.simulate.shrink import shrink_boxes
 from odms_data.store.masks import stats_of
@@ -34,19 +39,32 @@ def test_observation_indices_are_linspace_truncated():
 def test_distances_and_labels():
     z = np.array([0.2, 0.3, 0.5, 0.6])
     dz, zbar = distances(z)
-    np.testing.assert_allclose(dz, [0, 0.1, 0.3, 0.4], atol=1e-7)
+    np.testing.assert_allclose(dz, [0.1, 0.3, 0.4], atol=1e-7)  # dz_2 .. dz_n: no constant dz_1 = 0
     np.testing.assert_allclose(zbar, [0.25, 0.75], atol=1e-7)
     assert dz.dtype == zbar.dtype == np.float32
     got = labels(0.2, z)
     np.testing.assert_allclose([got["d1"], got["d1_norm"], got["scale"]], [0.2, 0.5, 1 / 3], rtol=1e-6)
 
 
-def test_radial_image():
-    r = radial_image((3, 3))
-    assert r[1, 1] == 1 and r[0, 0] == r[2, 2] == r[0, 2] == 0
-    np.testing.assert_allclose(r[0, 1], 1 - 1 / np.sqrt(2), rtol=1e-6)
+# SHA-256 of the pixels of the authors' data/misc/radial2D.png (griffbr/ODMS, commit b6147f2),
+# 224x224 8-bit, decoded with cv2.imread(path, cv2.IMREAD_GRAYSCALE)
+RELEASED_TEMPLATE_SHA256 = "134343cc12d79cf1f58694aeda99e1b83707047c6822cc1afa907075df7b0ebd"
+
+
+def test_radial_template_is_the_released_one():
+    t = radial_template()
+    assert t.shape == (224, 224) and t.dtype == np.uint8
+    assert t[112, 112] == 255 and t[0, 0] == 0 and t[112, 0] == round(255 * (1 - 1 / np.sqrt(2)))
+    assert hashlib.sha256(t.tobytes()).hexdigest() == RELEASED_TEMPLATE_SHA256
+
+
+def test_radial_image_is_the_template_resized_linearly():
     r = radial_image((112, 112))
-    assert r.dtype == np.float32 and r.max() < 1 and r.min() == 0  # even size: centre between pixels
+    assert r.shape == (112, 112) and r.dtype == np.float32
+    np.testing.assert_array_equal(r, (cv2.resize(radial_template(), (112, 112)) / 255).astype(np.float32))
+    # what the authors' code feeds the network: 254/255 next to the centre, 1/255 in the corner
+    assert r[56, 56] == np.float32(254 / 255) and r[0, 0] == np.float32(1 / 255)
+    assert radial_image((50, 90)).shape == (50, 90)
 
 
 def test_resize_masks_area():
@@ -62,10 +80,15 @@ def test_resize_masks_area():
 def test_transform_outputs():
     masks = np.zeros((4, 8, 8), bool)
     masks[:, 2:6, 2:6] = True
-    out = Transform(size=(4, 4), radial=True)(masks, np.array([0.2, 0.3, 0.5, 0.6]), 0.2)
-    assert out["masks"].shape == (4, 4, 4) and out["masks"][:, 1:3, 1:3].all()
-    assert out["masks"].sum() == 16 and out["radial"].shape == (1, 4, 4)
-    assert out["zbar"].shape == (2,) and out["scale"] == np.float32(1 / 3)
+    masks[:, 1, 1] = True  # a quarter of output pixel (0, 0)
+    z = np.array([0.2, 0.3, 0.5, 0.6])
+    out = Transform(size=(4, 4), radial=True)(masks, z, 0.2)
+    assert out["masks"].shape == (4, 4, 4) and out["masks"].dtype == np.float32
+    assert out["masks"][:, 1:3, 1:3].all() and out["masks"][0, 0, 0] == 0.25 and out["masks"].sum() == 17
+    assert out["radial"].shape == (1, 4, 4) and out["dz"].shape == (3,) and out["zbar"].shape == (2,)
+    assert out["scale"] == np.float32(1 / 3)
+    rounded = Transform(size=(4, 4), rounded=True)(masks, z, 0.2)["masks"]
+    assert rounded.dtype == np.uint8 and rounded.sum() == 16 and rounded[0, 0, 0] == 0
     with pytest.raises(InputError, match="size"):
         Transform(size=(0, 4))
 
@@ -86,6 +109,24 @@ def test_fast_render_matches_generator(params):
     render_masks(specs[:2], params, (112, 112), frames, out)
     for spec, masks in zip(specs[:2], out, strict=True):
         assert np.array_equal(masks, generator_render(spec, params, (112, 112))[frames])
+
+
+@pytest.mark.parametrize("params", [GeneratorParams(), preset("perturb", perturb_std=3.0), CLIPPED])
+def test_boxes_are_what_render_frame_draws(params):
+    specs = [sample_example(params, 14, index) for index in range(30)]
+    boxes = render_boxes(specs, params)
+    n = params.n_obs
+    assert len(boxes) == len(specs) * n
+    for f, drawn in enumerate(boxes):
+        want = np.zeros(params.image_size, np.uint8)
+        box = render_frame(specs[f // n], params, f % n, want)
+        if box is None:
+            assert drawn is None
+            continue
+        got = np.zeros_like(want)
+        pixels, x0, y0 = drawn
+        got[y0 : y0 + pixels.shape[0], x0 : x0 + pixels.shape[1]] = pixels
+        assert (x0, y0, x0 + pixels.shape[1], y0 + pixels.shape[0]) == box and np.array_equal(got, want)
 
 
 @pytest.mark.parametrize("params", [GeneratorParams(), preset("perturb", perturb_std=3.0), CLIPPED])

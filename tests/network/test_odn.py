@@ -47,6 +47,9 @@ def test_the_distances_change_the_output():
 
 def test_inputs_from_a_loader_batch():
     from odms_data.loaders.sources import GeneratedExamples
+    from odms_data.loaders.transforms import Transform
+
+    assert transform(5, radial=True) == Transform(n_obs=5, radial=True)  # the loaders' default, the paper's
 
     batch = {k: torch.from_numpy(np.asarray(v)) for k, v in
              GeneratedExamples(seed=1, transform=transform(5, radial=True)).batch([0, 1]).items()}
@@ -55,7 +58,7 @@ def test_inputs_from_a_loader_batch():
     assert images.shape == (2, 6, 112, 112) and torch.equal(images[:, 5], batch["radial"][:, 0])
     assert torch.equal(zbar, batch["zbar"]) and zbar.shape == (2, 3)
     _, dz = inputs(batch, VARIANTS["odn-d"])
-    assert dz.shape == (2, 4) and (dz > 0).all()  # z_i - z_1 for i = 2..n: dz_1 = 0 is left out
+    assert torch.equal(dz, batch["dz"]) and dz.shape == (2, 4)  # the loaders' dz_2 .. dz_n as they are
     assert build(VARIANTS["odn-d"], 5, radial=True)(images, dz).shape == (2,)
 
 

@@ -1,10 +1,14 @@
-"""Generating on a Dask LocalCluster: same digest as a local run, survives a killed worker, URLs."""
+"""Generating on Dask: a default deployment of `dask scheduler` and `dask worker` processes and
+LocalClusters give a local run's digest, survive a killed worker, write URLs."""
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
+import time
+from pathlib import Path
 
 import cloudpickle
 import dask
@@ -58,6 +62,54 @@ def test_same_digest_as_a_local_run(cluster, local_digest, tmp_path):
     assert attrs.digest == local_digest
     assert sum(seen) == COUNT and len(seen) == COUNT // PER_SHARD
     assert not os.path.exists(path + ".partial")
+    _check(path, local_digest)
+
+
+@pytest.fixture(scope="module")
+def deployment(tmp_path_factory):
+    """A default deployment, as docs/DISTRIBUTED.md starts one: a `dask scheduler` process and a
+    `dask worker --nworkers 2 --nthreads 1` process (its workers under nannies); the address."""
+    tmp = tmp_path_factory.mktemp("dask")
+    dask, file = Path(sys.executable).with_name("dask"), tmp / "scheduler.json"
+    common = ["--no-dashboard", "--scheduler-file", str(file)]
+    log = open(tmp / "dask.log", "w")  # noqa: SIM115  # closed with the processes
+    procs = [subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", "0", *common],
+                              stdout=log, stderr=subprocess.STDOUT)]
+    procs.append(subprocess.Popen([dask, "worker", "--nworkers", "2", "--nthreads", "1", *common],
+                                  stdout=log, stderr=subprocess.STDOUT))
+    try:
+        deadline = time.monotonic() + 120
+        while not file.exists() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        address = json.loads(file.read_text())["address"]
+        with distributed.Client(address, timeout=60, set_as_default=False) as client:
+            client.wait_for_workers(2, timeout=120)
+        yield address
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+            p.wait(60)
+        log.close()
+
+
+def _trim_threshold() -> str | None:
+    import os  # the worker's, not a pickled copy of this process's os.environ
+
+    return os.environ.get("MALLOC_TRIM_THRESHOLD_")
+
+
+def test_a_default_deployment_gives_the_local_digest(deployment, local_digest, tmp_path):
+    with distributed.Client(deployment, set_as_default=False) as client:
+        cloudpickle.register_pickle_by_value(sys.modules[__name__])  # workers cannot import this file
+        try:
+            trims = client.run(_trim_threshold)
+        finally:
+            cloudpickle.unregister_pickle_by_value(sys.modules[__name__])
+        pids = client.run(os.getpid)
+    assert len(trims) == 2 and set(trims.values()) == {"65536"}  # nannies set it in their workers
+    assert len(set(pids.values())) == 2 and os.getpid() not in pids.values()  # worker processes
+    path = str(tmp_path / "deployed.zarr")
+    generate(path, COUNT, PARAMS, SEED, examples_per_shard=PER_SHARD, scheduler=deployment)
     _check(path, local_digest)
 
 

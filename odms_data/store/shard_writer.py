@@ -1,0 +1,84 @@
+"""Writing a whole shard of `masks` at once: chunks compressed as they are made, one write.
+
+zarr spends about twice the compression's own time on a full shard write (a fresh fill-value
+array and a copy per inner chunk, and an asyncio task per chunk). A shard task knows its chunks
+one by one, so it compresses each as soon as it is made and writes the shard's bytes at once:
+one file write for a local store (shard_layout.py; zarr is not even imported), one store call
+for a URL. zarr reads them as it reads its own (tests/store check it). HDF5 chunks are deflated
+the same way and handed to the single writer.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+import zlib
+
+import numpy as np
+
+from .backends import GZIP_LEVEL, ZSTD_LEVEL, storage_options
+from .shard_layout import ShardLayout
+
+MISSING = 2**64 - 1  # offset and length of an absent inner chunk
+
+
+class ShardChunks:
+    """The compressed mask chunks of one shard, added in order (`fmt`: 'zarr' or 'hdf5')."""
+
+    def __init__(self, fmt: str, frames_per_chunk: int) -> None:
+        self.fmt, self.frames_per_chunk = fmt, frames_per_chunk
+        self.chunks: list[bytes] = []
+        if fmt == "zarr":  # one zstd context for all chunks: a fresh one per chunk (numcodecs, so
+            import zstandard  # zarr) allocates a megabyte each time, page faults included
+
+            self._zstd = zstandard.ZstdCompressor(level=ZSTD_LEVEL, write_checksum=True)
+
+    def add(self, frames: np.ndarray) -> None:
+        """Compress the next chunk: (k, H, ceil(W/8)) packed frames, zero-padded to full length."""
+        if len(frames) < self.frames_per_chunk:
+            padded = np.zeros((self.frames_per_chunk, *frames.shape[1:]), np.uint8)
+            padded[: len(frames)] = frames
+            frames = padded
+        data = np.ascontiguousarray(frames, np.uint8)
+        if self.fmt == "zarr":
+            self.chunks.append(self._zstd.compress(data.data))
+        else:
+            self.chunks.append(zlib.compress(data.data, GZIP_LEVEL))
+
+    def write(self, path: str, start: int) -> list[bytes]:
+        """Zarr: store the shard that begins at frame `start` (a shard boundary) in one write,
+        replacing whatever an interrupted earlier attempt left; returns []. HDF5: returns the
+        deflated chunks, for the single writer's `write_mask_chunk`."""
+        if self.fmt != "zarr":
+            return self.chunks
+        layout = ShardLayout.of(path)
+        if layout is not None:  # a local store: no zarr (its import is a third of a worker's start-up)
+            target = layout.shard_path(start // layout.shard)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            partial = target.with_name(f"{target.name}.{os.getpid()}.{threading.get_ident()}.partial")
+            partial.write_bytes(shard_bytes(self.chunks, layout.per_shard))
+            partial.replace(target)  # whole or not at all, as zarr's own local writes
+            return []
+        import zarr
+        from zarr.core.buffer import default_buffer_prototype
+        from zarr.core.sync import sync
+
+        masks = zarr.open_array(store=path, path="masks", mode="r+", storage_options=storage_options(path))
+        per_shard = masks.shards[0] // masks.chunks[0]  # type: ignore[index]  # masks is sharded
+        key = masks.metadata.encode_chunk_key((start // masks.shards[0], 0, 0))  # type: ignore[index]
+        data = shard_bytes(self.chunks, per_shard)
+        sync(masks.store.set(f"{masks.path}/{key}", default_buffer_prototype().buffer.from_bytes(data)))
+        return []
+
+
+def shard_bytes(chunks: list[bytes], per_shard: int) -> bytes:
+    """A shard holding `chunks` as its first inner chunks (the rest absent): the chunks, then the
+    index of (offset, length) pairs as little-endian uint64 and its crc32c, little-endian."""
+    import google_crc32c
+
+    index = np.full((per_shard, 2), MISSING, "<u8")
+    lengths = np.array([len(c) for c in chunks], np.uint64)
+    index[: len(chunks), 1] = lengths
+    index[: len(chunks), 0] = np.cumsum(lengths) - lengths
+    raw = index.tobytes()
+    return b"".join([*chunks, raw, google_crc32c.value(raw).to_bytes(4, "little")])
