@@ -3,9 +3,10 @@ and with 1 and 2 worker processes, and a store read through each loader.
 
     python benchmarks/stream.py [--store sim-val.zarr] [--examples 4096] [--batch-size 256]
 
-"112x112" streams masks equal to a store's shrunk to 112x112 (the default, uint8); "coverage" the
-same masks as float32 covered fractions (Transform(coverage=True)); "direct" draws them straight
-at 112x112 (GeneratedExamples(direct=True)). The baseline, measured in the same run, is
+"112x112 coverage" streams the paper's inputs: masks equal to a store's shrunk to 112x112 with
+INTER_AREA, as float32 covered fractions (the default transform); "uint8" the same fractions
+rounded (Transform(rounded=True)); "direct" draws uint8 masks straight at 112x112
+(GeneratedExamples(direct=True)). The baseline, measured in the same run, is
 the naive streaming path: draw each mask at 480x640 with render.render_masks and shrink it to
 112x112. Timing starts when the first batch arrives, so worker start-up is left out; the first
 batch is not counted. grain's rows count from the start instead, all batches: in-process, grain
@@ -105,11 +106,11 @@ def main() -> None:
         print(f"{name:<48} {wall:10.0f} {wall / base:10.1f}x {cpu:15.0f} {cpu / base_cpu:10.1f}x", flush=True)
 
     record("baseline: 480x640 drawn, shrunk to 112x112", rate(naive(B, max(2, nb // 4)), B))
-    for size, direct, coverage, label in (((112, 112), False, False, "112x112"),
-                                          ((112, 112), False, True, "112x112 coverage"),
-                                          ((112, 112), True, False, "112x112 direct"),
-                                          (None, False, False, "480x640")):
-        t = Transform(size=size, coverage=coverage)
+    for size, direct, rounded, label in (((112, 112), False, False, "112x112 coverage"),
+                                         ((112, 112), False, True, "112x112 uint8"),
+                                         ((112, 112), True, True, "112x112 direct uint8"),
+                                         (None, False, True, "480x640 uint8")):
+        t = Transform(size=size, rounded=rounded)
         b = B if size else 16  # a batch of 480x640 masks is 3 MB an example
         for workers in (0, 2):
             batches = stream_batches(b, nb * B // b // (1 if size else 4), params=PARAMS, transform=t,
@@ -120,22 +121,22 @@ def main() -> None:
     has_grain = importlib.util.find_spec("grain") is not None
     if has_grain:
         for workers in (0, 2):
-            record(f"grain stream 112x112, workers={workers}", rate(grain_stream(B, nb, workers), B, True))
+            record(f"grain stream 112x112 coverage, workers={workers}",
+                   rate(grain_stream(B, nb, workers), B, True))
     if has_torch:
         from torch.utils.data import DataLoader
 
         from odms_data.loaders.torch_loader import StoreDataset, StreamDataset
 
-        for coverage in (False, True):
-            for workers in (2,):
-                ds = StreamDataset(B, nb, params=PARAMS, transform=Transform(coverage=coverage))
-                record(f"torch stream 112x112{' coverage' if coverage else ''}, workers={workers}",
-                       rate(DataLoader(ds, batch_size=None, num_workers=workers), B))
+        for rounded in (False, True):
+            ds = StreamDataset(B, nb, params=PARAMS, transform=Transform(rounded=rounded))
+            record(f"torch stream 112x112 {'uint8' if rounded else 'coverage'}, workers=2",
+                   rate(DataLoader(ds, batch_size=None, num_workers=2), B))
     if has_tf:
         from odms_data.loaders.tf_loader import from_generator
 
         record("tf stream 112x112 coverage, workers=2",
-               rate(from_generator(B, nb, params=PARAMS, transform=Transform(coverage=True), workers=2), B))
+               rate(from_generator(B, nb, params=PARAMS, workers=2), B))
 
     with tempfile.TemporaryDirectory() as tmp:
         store = args.store
@@ -143,18 +144,18 @@ def main() -> None:
             store = str(Path(tmp) / "bench.zarr")
             generate(store, 2048, PARAMS, seed=1, workers=2)
         for workers in (0, 2):
-            record(f"numpy store -> 112x112, workers={workers}",
+            record(f"numpy store -> 112x112 coverage, workers={workers}",
                    rate(store_batches(store, B, workers=workers), B))
         if has_torch:
             for workers in (0, 2):
-                record(f"torch store -> 112x112, workers={workers}",
+                record(f"torch store -> 112x112 coverage, workers={workers}",
                        rate(DataLoader(StoreDataset(store), batch_size=B, num_workers=workers), B))
         if has_grain:
-            record("grain store -> 112x112, workers=2", rate(grain_store(store, B, 2), B, True))
+            record("grain store -> 112x112 coverage, workers=2", rate(grain_store(store, B, 2), B, True))
         if has_tf:
             from odms_data.loaders.tf_loader import from_store
 
-            record("tf store -> 112x112, workers=2", rate(from_store(store, B, workers=2), B))
+            record("tf store -> 112x112 coverage, workers=2", rate(from_store(store, B, workers=2), B))
 
 
 if __name__ == "__main__":

@@ -23,6 +23,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..simulate.params import GeneratorParams
+from .reused_arrays import ReusedArrays
 from .sources import STANDARD, GeneratedExamples, StoreExamples, stream_indices
 from .transforms import PAPER_TRANSFORM, Transform
 
@@ -62,9 +63,10 @@ class _StreamBatch:
 
     def __init__(self, examples: GeneratedExamples, batch_size: int) -> None:
         self.examples, self.batch_size = examples, batch_size
+        self.arrays = ReusedArrays()  # batches nothing holds any more are drawn into again
 
     def __call__(self, k: int) -> dict[str, np.ndarray]:
-        return self.examples.batch(stream_indices(k, self.batch_size, 1, 0))
+        return self.examples.batch(stream_indices(k, self.batch_size, 1, 0), self.arrays.empty)
 
 
 def stream_dataset(

@@ -7,7 +7,8 @@
 Batches are made in order, by the calling process or by `workers` spawned processes with at
 most 2 * workers batches in flight; the content never depends on the number of workers. Workers
 hand batches over in shared memory blocks that are reused (shared_batches.py): a batch from a
-worker is a set of views of such a block, valid for as long as you keep them.
+worker is a set of views of such a block, valid for as long as you keep them. The calling
+process likewise reuses the arrays of batches nothing refers to any more (reused_arrays.py).
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ import numpy as np
 from ..errors import InputError
 from ..parallel import ordered_map, spawn_pool
 from ..simulate.params import GeneratorParams
+from .reused_arrays import ReusedArrays
 from .shared_batches import Arena, BlockPool
 from .sources import STANDARD, GeneratedExamples, Indices, StoreExamples, store_order, stream_indices
 from .transforms import PAPER_TRANSFORM, Transform
@@ -57,8 +59,9 @@ class Batches:
 
     def __iter__(self) -> Iterator[dict[str, np.ndarray]]:
         if self.workers == 0:
+            arrays = ReusedArrays()
             for indices in self.plan:
-                yield self.source.batch(indices)
+                yield self.source.batch(indices, arrays.empty)
             return
         blocks = BlockPool()
 

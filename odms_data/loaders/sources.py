@@ -17,7 +17,7 @@ from ..errors import InputError
 from ..simulate.batch_render import render_masks, render_shrunk
 from ..simulate.object_model import sample_example
 from ..simulate.params import PRESETS, GeneratorParams
-from ..simulate.shrink import shrink_boxes
+from ..simulate.shrink import shrink_packed
 from ..store.masks import unpack
 from ..store.reader import Store, open_store
 from .transforms import PAPER_TRANSFORM, Transform
@@ -78,17 +78,20 @@ class StoreExamples:
         except InputError as e:
             raise InputError(f"{self.path}: example {self.store.example_ids[i]}: {e}") from None
 
-    def _inputs(self, i: int, chosen: np.ndarray, masks: np.ndarray) -> dict[str, np.ndarray]:
+    def _inputs(self, i: int, chosen: np.ndarray, packed: np.ndarray) -> dict[str, np.ndarray]:
+        """Example i's inputs from the packed masks of its frames `chosen`."""
         s, t = self.store, self.transform
-        if t.size is not None:  # shrink only the stored boxes: same pixels, a fraction of the work
-            masks = shrink_boxes(masks, s.bbox[chosen], t.size, not t.rounded)
+        if t.size is not None:  # unpack and shrink only the stored boxes: the same pixels
+            masks = shrink_packed(packed, s.width, s.bbox[chosen], t.size, not t.rounded)
+        else:
+            masks = unpack(packed, s.width)
         out = t(masks, s.z[chosen], float(s.d1[i]))
         out["index"] = np.int64(i)
         return out
 
     def example(self, i: int) -> dict[str, np.ndarray]:
         chosen = self._chosen(i)
-        return self._inputs(i, chosen, self.store.read_masks(chosen))
+        return self._inputs(i, chosen, self.store.read_packed_frames(chosen))
 
     def batch(self, indices: Indices, empty: Empty = np.empty) -> dict[str, np.ndarray]:
         return collate(self.examples(indices), empty)
@@ -101,9 +104,9 @@ class StoreExamples:
         lo, hi = int(flat.min()), int(flat.max()) + 1
         pairs = zip(rows, chosen, strict=True)
         if hi - lo > 4 * len(flat):
-            return [self._inputs(i, c, self.store.read_masks(c)) for i, c in pairs]
-        packed, width = self.store.read_packed(lo, hi), self.store.width
-        return [self._inputs(i, c, unpack(packed[c - lo], width)) for i, c in pairs]
+            return [self._inputs(i, c, self.store.read_packed_frames(c)) for i, c in pairs]
+        packed = self.store.read_packed(lo, hi)
+        return [self._inputs(i, c, packed[c - lo]) for i, c in pairs]
 
 
 class GeneratedExamples:

@@ -36,7 +36,7 @@ cv2.setNumThreads(1)
 
 
 @dataclass
-class _Geometry:
+class FrameGeometry:
     """Frames of several examples, flattened example-major: F = examples x frames per example."""
 
     poly: np.ndarray  # (P, 2) vertices relative to each frame's canvas corner
@@ -64,9 +64,9 @@ def _mark(image: np.ndarray, poly: np.ndarray, starts: np.ndarray, offsets: np.n
     image.ravel()[contour_pixels(poly, starts, W, offsets[:, 1] * W + offsets[:, 0])] = 1
 
 
-def _geometry(
+def frame_geometry(
     specs: Sequence[ExampleSpec], params: GeneratorParams, frames: np.ndarray, size: tuple[int, int]
-) -> _Geometry:
+) -> FrameGeometry:
     """render_frame's arithmetic for `frames` of every example, at once, with the same floats."""
     H0, W0 = params.image_size
     H, W = size
@@ -86,7 +86,7 @@ def _geometry(
     lo = np.floor(np.minimum.reduceat(poly, starts[:-1], axis=0)).astype(np.int64) - (k + 1)[:, None]
     hi = np.ceil(np.maximum.reduceat(poly, starts[:-1], axis=0)).astype(np.int64) + (k + 2)[:, None]
     poly -= np.repeat(lo, lengths, axis=0)
-    return _Geometry(poly, starts, lo, hi, k, perturb >= 0)
+    return FrameGeometry(poly, starts, lo, hi, k, perturb >= 0)
 
 
 def _frames(specs: Sequence[ExampleSpec], frames: np.ndarray | None) -> np.ndarray:
@@ -119,7 +119,7 @@ def render_masks(
     frames = _frames(specs, frames)
     n = len(frames)
     out = _out(out, (len(specs), n, H, W), np.uint8)
-    g = _geometry(specs, params, frames, (H, W))
+    g = frame_geometry(specs, params, frames, (H, W))
     inside = (g.k == 0) & (g.lo >= 0).all(axis=1) & (g.hi[:, 0] <= W) & (g.hi[:, 1] <= H)
     if inside.any():  # frame f is rows f * H ... of out seen as one (examples * k * H, W) image
         rows = np.arange(len(inside)) * H
@@ -138,25 +138,30 @@ def render_masks(
 
 def render_boxes(
     specs: Sequence[ExampleSpec], params: GeneratorParams
-) -> list[tuple[np.ndarray, int, int] | None]:
+) -> list[tuple[np.ndarray, int, int, bool] | None]:
     """For every frame of every example (example-major): the pixels `render.render_frame` draws
-    into a full-size frame, as (the drawn box, x0, y0), or None where it draws nothing."""
+    into a full-size frame, as (the drawn box, x0, y0, one_region), or None where it draws
+    nothing. `one_region`: the object is known to be one 8-connected region, as a silhouette is
+    (its contour pixels are a closed chain, the rest enclosed by it) unless eroded or cut by
+    the image border."""
     H, W = params.image_size
-    g = _geometry(specs, params, _frames(specs, None), (H, W))
+    g = frame_geometry(specs, params, _frames(specs, None), (H, W))
     size = g.hi - g.lo
     tops = np.concatenate([[0], np.cumsum(size[:, 1])])
     stacked = np.zeros((int(tops[-1]), int(size[:, 0].max())), np.uint8)  # the canvases, top to bottom
     _mark(stacked, g.poly, g.starts, np.stack([np.zeros_like(tops[:-1]), tops[:-1]], axis=1))
+    fill_enclosed(stacked, tops[:-1])  # each canvas has an empty border; the columns right of it too
     clip_lo, clip_hi = np.maximum(g.lo, 0), np.minimum(g.hi, [W, H])
-    out: list[tuple[np.ndarray, int, int] | None] = []
+    whole = (clip_lo == g.lo).all(axis=1) & (clip_hi == g.hi).all(axis=1) & (g.dilate | (g.k == 0))
+    out: list[tuple[np.ndarray, int, int, bool] | None] = []
     for f in range(len(size)):
         canvas: np.ndarray = stacked[tops[f] : tops[f + 1], : size[f, 0]]
-        fill_enclosed(canvas)
         if g.k[f]:
             canvas = (cv2.dilate if g.dilate[f] else cv2.erode)(canvas, CROSS, iterations=int(g.k[f]))
         (x0, y0), (cx0, cy0), (cx1, cy1) = g.lo[f], clip_lo[f], clip_hi[f]
         drawn = cx0 < cx1 and cy0 < cy1
-        out.append((canvas[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0], int(cx0), int(cy0)) if drawn else None)
+        box = canvas[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0]
+        out.append((box, int(cx0), int(cy0), bool(whole[f])) if drawn else None)
     return out
 
 
@@ -189,7 +194,7 @@ def render_shrunk(
         return out
     out = _out(out, (len(specs), n, h, w), dtype).reshape(-1, h, w)
     periods = py, qy, px, qx = periods_of((H0, W0), size)
-    g = _geometry(specs, params, frames, (H0, W0))
+    g = frame_geometry(specs, params, frames, (H0, W0))
     clip_lo, clip_hi = np.maximum(g.lo, 0), np.minimum(g.hi, [W0, H0])
     tile_lo = clip_lo // [px, py] * [px, py]
     tile_hi = -(-clip_hi // [px, py]) * [px, py]

@@ -19,10 +19,11 @@ from ..store.digest import example_digest, padded_frame_digest
 from ..store.masks import FrameStats, packed_width
 from ..store.shard_writer import ShardChunks
 from .batch_render import render_boxes
-from .object_model import sample_example
+from .object_model import ExampleSpec, sample_example
 from .params import GeneratorParams
 
 SOURCE = "generated"
+DRAW_CHUNK = 8  # examples drawn together: fewer calls, the drawing's scratch image a few MB
 
 
 def example_ids(split: str, count: int, start: int, stop: int) -> list[str]:
@@ -71,16 +72,15 @@ def run_shard(task: ShardTask) -> ShardResult:
     ids = example_ids(task.split, task.count, task.start, task.stop)
     chunks = ShardChunks(task.fmt, n)
     with _buffers(n, H, W) as (frame, packed):
-        for e, index in enumerate(range(task.start, task.stop)):
-            spec = sample_example(p, task.seed, index)
+        for e, spec, boxes in _drawn(p, task.seed, task.start, task.stop):
             z[e * n : (e + 1) * n] = spec.z
             drawn, frame_digests = [], []
-            for i, box in enumerate(render_boxes([spec], p)):  # render.render_frame's pixels
+            for i, box in enumerate(boxes):  # render.render_frame's pixels
                 x0, y0, x1, y1 = 0, 0, 0, 0
                 if box is not None:
-                    pixels, x0, y0 = box
+                    pixels, x0, y0, one_region = box
                     y1, x1 = y0 + pixels.shape[0], x0 + pixels.shape[1]
-                    stats.set(e * n + i, pixels, x0, y0)
+                    stats.set(e * n + i, pixels, x0, y0, one_region)
                     frame[y0:y1, x0:x1] = pixels
                     b0, b1 = x0 // 8, -(-x1 // 8)  # the bytes the box's columns fall in
                     packed[i, y0:y1, b0:b1] = np.packbits(frame[y0:y1, 8 * b0 : 8 * b1], axis=-1)
@@ -95,6 +95,18 @@ def run_shard(task: ShardTask) -> ShardResult:
     result = ShardResult(task.start, task.stop, z, stats, digests)
     result.deflated_chunks = chunks.write(task.path, task.start * n)
     return result
+
+
+def _drawn(
+    p: GeneratorParams, seed: int, start: int, stop: int
+) -> Iterator[tuple[int, ExampleSpec, list[tuple[np.ndarray, int, int, bool] | None]]]:
+    """(position in the shard, draws, render_boxes of its frames) of examples start..stop-1,
+    drawn DRAW_CHUNK examples at a time."""
+    for a in range(start, stop, DRAW_CHUNK):
+        specs = [sample_example(p, seed, index) for index in range(a, min(a + DRAW_CHUNK, stop))]
+        boxes = render_boxes(specs, p)
+        for j, spec in enumerate(specs):
+            yield a - start + j, spec, boxes[j * p.n_obs : (j + 1) * p.n_obs]
 
 
 _reused = threading.local()  # per thread: a Dask worker may run several tasks at once

@@ -13,6 +13,8 @@ import math
 import cv2
 import numpy as np
 
+from ..store.masks import unpack
+
 cv2.setNumThreads(1)
 
 
@@ -50,6 +52,28 @@ def shrink_into(out: np.ndarray, crop: np.ndarray, X0: int, Y0: int, periods: tu
     oy0, ox0 = Y0 // py * qy, X0 // px * qx
     oh, ow = crop.shape[0] // py * qy, crop.shape[1] // px * qx
     out[oy0 : oy0 + oh, ox0 : ox0 + ow] = cv2.resize(crop, (ow, oh), interpolation=cv2.INTER_AREA)
+
+
+def shrink_packed(
+    packed: np.ndarray, width: int, boxes: np.ndarray, size: tuple[int, int], coverage: bool = False
+) -> np.ndarray:
+    """`shrink_boxes(unpack(packed, width), boxes, size, coverage)` for (k, H, ceil(W/8)) packed
+    masks (store.masks.pack), unpacking only each box widened to the grid: the widened columns
+    start on a whole byte, as a period of the grid is a multiple of 8 columns when W is."""
+    k, H0, _ = packed.shape
+    periods = periods_of((H0, width), size)
+    py, _, px, _ = periods
+    if size[0] > H0 or size[1] > width or px % 8:
+        return shrink_boxes(unpack(packed, width), boxes, size, coverage)
+    out = np.zeros((k, *size), np.float32 if coverage else np.uint8)
+    for j, (x0, y0, x1, y1) in enumerate(np.asarray(boxes, np.int64)):
+        if x0 >= x1 or y0 >= y1:
+            continue
+        X0, X1 = _aligned(x0, x1, px)
+        Y0, Y1 = _aligned(y0, y1, py)
+        crop = np.unpackbits(packed[j, Y0:Y1, X0 // 8 : -(-X1 // 8)], axis=-1, count=X1 - X0)
+        shrink_into(out[j], crop.astype(out.dtype, copy=False), int(X0), int(Y0), periods)
+    return out
 
 
 def shrink_boxes(masks: np.ndarray, boxes: np.ndarray, size: tuple[int, int], coverage: bool = False):

@@ -11,7 +11,7 @@ import numpy as np
 from ..errors import InputError, StoreError
 from .backends import Backend, open_backend
 from .format import EXAMPLE_ARRAYS, FRAME_ARRAYS, StoreAttrs, decode_strings, layout_problems
-from .masks import unpack
+from .masks import packed_width, unpack
 from .shard_reader import ShardReader
 
 
@@ -143,17 +143,19 @@ class Store:
                 f"{self.path}: masks of frames {start}..{stop - 1} are unreadable ({e})"
             ) from e
 
-    def read_masks(self, frames: np.ndarray) -> np.ndarray:
-        """(k, H, W) bool masks of the given frame rows, read in as few slices as sensible."""
+    def read_packed_frames(self, frames: np.ndarray) -> np.ndarray:
+        """(k, H, ceil(W/8)) packed masks of the given frame rows, read in as few slices as sensible."""
         frames = np.asarray(frames, np.int64)
         if len(frames) == 0:
-            return np.zeros((0, self.height, self.width), bool)
+            return np.zeros((0, self.height, packed_width(self.width)), np.uint8)
         lo, hi = int(frames.min()), int(frames.max()) + 1
         if hi - lo <= 4 * len(frames):
-            packed = self.read_packed(lo, hi)[frames - lo]
-        else:
-            packed = np.stack([self.read_packed(f, f + 1)[0] for f in frames])
-        return unpack(packed, self.width)
+            return self.read_packed(lo, hi)[frames - lo]
+        return np.stack([self.read_packed(f, f + 1)[0] for f in frames])
+
+    def read_masks(self, frames: np.ndarray) -> np.ndarray:
+        """(k, H, W) bool masks of the given frame rows, read in as few slices as sensible."""
+        return unpack(self.read_packed_frames(frames), self.width)
 
     def example(self, key: int | str, masks: bool = True) -> Example:
         """Example by row or id; `masks=False` skips decoding masks (an empty array)."""

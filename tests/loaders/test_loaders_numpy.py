@@ -93,6 +93,20 @@ def test_stream_equals_store_read_through_loader(store_path):
     assert all(np.array_equal(stored[k], streamed[k]) for k in stored)
 
 
+def test_in_process_batches_reuse_only_dropped_arrays():
+    params = GeneratorParams(image_size=(60, 80), n_obs=3)
+    batches = iter(stream_batches(4, 4, params=params, transform=Transform(size=(28, 28))))
+    kept = next(batches)
+    copy = {k: v.copy() for k, v in kept.items()}
+    view = next(batches)["masks"][1:]  # batch 1 dropped, a view of its masks kept
+    third = next(batches)
+    assert all(np.array_equal(kept[k], copy[k]) for k in kept)  # batches 1 and 2 drew elsewhere
+    assert not np.shares_memory(third["masks"], kept["masks"]) and not np.shares_memory(third["masks"], view)
+    pointer = third["masks"].ctypes.data
+    del third
+    assert next(batches)["masks"].ctypes.data == pointer  # dropped: its memory drawn into again
+
+
 def test_bad_arguments():
     with pytest.raises(InputError, match="batch size"):
         stream_batches(0, 3)

@@ -24,8 +24,8 @@ from odms_data.simulate.object_model import sample_example
 from odms_data.simulate.params import GeneratorParams, preset
 from odms_data.simulate.render import render_frame
 from odms_data.simulate.render import render_masks as generator_render
-from odms_data.simulate.shrink import shrink_boxes
-from odms_data.store.masks import stats_of
+from odms_data.simulate.shrink import shrink_boxes, shrink_packed
+from odms_data.store.masks import pack, stats_of
 
 
 def test_observation_indices_are_linspace_truncated():
@@ -115,7 +115,7 @@ def test_fast_render_matches_generator(params):
 def test_boxes_are_what_render_frame_draws(params):
     specs = [sample_example(params, 14, index) for index in range(30)]
     boxes = render_boxes(specs, params)
-    n = params.n_obs
+    n, split = params.n_obs, 0
     assert len(boxes) == len(specs) * n
     for f, drawn in enumerate(boxes):
         want = np.zeros(params.image_size, np.uint8)
@@ -124,9 +124,14 @@ def test_boxes_are_what_render_frame_draws(params):
             assert drawn is None
             continue
         got = np.zeros_like(want)
-        pixels, x0, y0 = drawn
+        pixels, x0, y0, one_region = drawn
         got[y0 : y0 + pixels.shape[0], x0 : x0 + pixels.shape[1]] = pixels
         assert (x0, y0, x0 + pixels.shape[1], y0 + pixels.shape[0]) == box and np.array_equal(got, want)
+        stats = stats_of(want[None])
+        if one_region:  # the generator then skips counting regions
+            assert stats.largest_area[0] == stats.area[0]
+        split += stats.largest_area[0] < stats.area[0]
+    assert split or params.perturb_std == 0  # eroded or cut frames in several regions exist
 
 
 @pytest.mark.parametrize("params", [GeneratorParams(), preset("perturb", perturb_std=3.0), CLIPPED])
@@ -155,5 +160,8 @@ def test_shrink_boxes_matches_resize():
     params = preset("perturb")
     masks = np.concatenate([generator_render(sample_example(params, 13, i), params) for i in range(20)])
     boxes = stats_of(masks).bbox
-    for size, coverage in (((112, 112), False), ((112, 112), True), ((37, 53), False)):
-        assert np.array_equal(shrink_boxes(masks, boxes, size, coverage), resize_masks(masks, size, coverage))
+    packed = pack(masks)
+    for size, coverage in (((112, 112), False), ((112, 112), True), ((37, 53), False), ((240, 160), True)):
+        want = resize_masks(masks, size, coverage)
+        assert np.array_equal(shrink_boxes(masks, boxes, size, coverage), want)
+        assert np.array_equal(shrink_packed(packed, masks.shape[2], boxes, size, coverage), want)
