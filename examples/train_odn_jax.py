@@ -3,10 +3,11 @@ by grain, then write a predictions CSV for a store that `odms-data score` scores
 
     python examples/train_odn_jax.py --store sim-val.zarr --out predictions.csv
 
-The JAX twin of train_odn.py (PyTorch): the same inputs, network shape and loss. The network sees
-the 112x112 masks of the n observations plus the radial image as channels, and the normalised
-camera positions zbar beside its pooled features; it predicts the relative scale d1/d_n in (0, 1),
-from which d1 = s (z_n - z_1) / (1 - s). Needs pip install 'odms-data[jax]' (jax, grain, optax).
+A small stand-in for ODN that shows the grain loader (the paper's ODN itself, in PyTorch, is
+`odms-data train`). The network sees the 112x112 masks of the n observations plus the radial image
+as channels, and the normalised camera positions zbar beside its pooled features; it predicts the
+relative scale d1/d_n in (0, 1), from which d1 = s (z_n - z_1) / (1 - s). Needs
+pip install 'odms-data[jax]' (jax, grain, optax).
 """
 
 from __future__ import annotations

@@ -58,6 +58,8 @@ COMMANDS = {  # command name -> (module of this package, attribute): imported on
     "score": ("score_commands", "score"),
     "baseline": ("score_commands", "baseline"),
     "leaderboard": ("score_commands", "leaderboard"),
+    "train": ("network_commands", "train"),
+    "predict": ("network_commands", "predict"),
 }
 
 

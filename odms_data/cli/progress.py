@@ -18,7 +18,8 @@ import click
 PERIOD = 10.0  # seconds between lines when stderr is not a terminal
 
 
-def _duration(seconds: float) -> str:
+def duration(seconds: float) -> str:
+    """h:mm:ss, or m:ss under an hour."""
     s = int(round(seconds))
     return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"
 
@@ -34,9 +35,9 @@ class _Lines:
     def line(self) -> str:
         elapsed = time.monotonic() - self.start
         pct = 100 * self.done / self.total if self.total else 100.0
-        text = f"{self.label}: {self.done}/{self.total} ({pct:.0f}%), {_duration(elapsed)} elapsed"
+        text = f"{self.label}: {self.done}/{self.total} ({pct:.0f}%), {duration(elapsed)} elapsed"
         if 0 < self.done < self.total:
-            text += f", about {_duration(elapsed * (self.total - self.done) / self.done)} left"
+            text += f", about {duration(elapsed * (self.total - self.done) / self.done)} left"
         return text
 
     def update(self, n: int) -> None:

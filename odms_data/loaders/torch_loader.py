@@ -62,6 +62,7 @@ class StoreDataset(Dataset):
 class StreamDataset(IterableDataset):
     """`batches_per_epoch` batches of `batch_size` freshly generated examples per epoch; use with
     DataLoader(dataset, batch_size=None, num_workers=...) and call set_epoch(e) before each epoch.
+    `start`: the first batch of each epoch to make (to resume an interrupted run where it stopped).
     `direct`: see sources.GeneratedExamples."""
 
     def __init__(
@@ -73,13 +74,16 @@ class StreamDataset(IterableDataset):
         seed: int = 0,
         transform: Transform = PAPER_TRANSFORM,
         direct: bool = False,
+        start: int = 0,
     ) -> None:
         if batch_size < 1 or batches_per_epoch < 1:
             raise InputError(
                 f"need batch_size >= 1 and batches_per_epoch >= 1, got {batch_size}, {batches_per_epoch}"
             )
+        if not 0 <= start < batches_per_epoch:
+            raise InputError(f"start must be a batch of the epoch, 0..{batches_per_epoch - 1}; got {start}")
         self.examples = GeneratedExamples(params, seed, transform, direct)
-        self.batch_size, self.batches_per_epoch = batch_size, batches_per_epoch
+        self.batch_size, self.batches_per_epoch, self.start = batch_size, batches_per_epoch, start
         # In shared memory, so that set_epoch reaches workers started earlier (persistent_workers=True):
         # DataLoader hands a worker the dataset once, and pickles this tensor as a handle, not a copy.
         self._epoch = torch.zeros((), dtype=torch.int64).share_memory_()
@@ -94,14 +98,14 @@ class StreamDataset(IterableDataset):
         self._epoch.fill_(epoch)
 
     def __len__(self) -> int:
-        return self.batches_per_epoch
+        return self.batches_per_epoch - self.start
 
     def __iter__(self):
         info = get_worker_info()
         worker, workers = (info.id, info.num_workers) if info else (0, 1)
         epoch = self.epoch  # read when the epoch starts: iter(loader) comes after set_epoch
         blocks = worker_blocks() if info else None
-        for b in range(worker, self.batches_per_epoch, workers):
+        for b in range(self.start + worker, self.batches_per_epoch, workers):
             indices = stream_indices(b, self.batch_size, self.batches_per_epoch, epoch)
             if blocks is None:
                 yield to_tensors(self.examples.batch(indices))

@@ -26,6 +26,7 @@ import numpy as np
 from ..benchmark import evenly_spaced
 from ..errors import InputError
 from ..simulate.shrink import resize_masks
+from .targets import labels
 
 cv2.setNumThreads(1)
 
@@ -46,16 +47,6 @@ def distances(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     z = np.asarray(z, np.float64)
     dz = z[1:] - z[0]
     return dz.astype(np.float32), (dz[:-1] / dz[-1]).astype(np.float32)
-
-
-def labels(d1: float, z: np.ndarray) -> dict[str, np.float32]:
-    """The paper's three labels of an example with label d1 and camera positions z."""
-    span = float(z[-1] - z[0])
-    return {
-        "d1": np.float32(d1),
-        "d1_norm": np.float32(d1 / span),
-        "scale": np.float32(d1 / (d1 + span)),
-    }
 
 
 def radial_template() -> np.ndarray:

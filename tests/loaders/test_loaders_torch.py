@@ -8,6 +8,7 @@ import torch
 from loader_stores import COUNT, make_store
 from torch.utils.data import DataLoader
 
+from odms_data.errors import InputError
 from odms_data.loaders import Transform
 from odms_data.loaders.torch_loader import StoreDataset, StreamDataset
 from odms_data.simulate.params import GeneratorParams
@@ -101,3 +102,14 @@ def test_stream_dataset_epochs_reach_persistent_workers():
         ds.set_epoch(epoch)
         seen.append(_indices(loader))
     assert seen == [list(range(12 * e, 12 * (e + 1))) for e in range(3)]
+
+
+def test_stream_dataset_resumes_at_a_batch():
+    whole = list(DataLoader(StreamDataset(4, 5, seed=3), batch_size=None))
+    rest = StreamDataset(4, 5, seed=3, start=2)
+    assert len(rest) == 3
+    later = list(two_workers(rest, batch_size=None))
+    assert _indices(later) == list(range(8, 20))  # batches 2, 3, 4 in order, across 2 workers
+    assert all(torch.equal(x[k], y[k]) for x, y in zip(whole[2:], later, strict=True) for k in x)
+    with pytest.raises(InputError, match="start must be a batch of the epoch, 0..4; got 5"):
+        StreamDataset(4, 5, start=5)

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from odms_data.errors import InputError
+from odms_data.loaders.targets import labels
 from odms_data.loaders.transforms import (
     Transform,
     distances,
-    labels,
     observation_indices,
     radial_image,
     radial_template,

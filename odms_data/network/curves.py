@@ -1,0 +1,58 @@
+"""curves.png of a run: L1 loss and mean percent error against the iteration, training and validation."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .run_folder import CURVES, PLOT, TRAIN, VAL, RunFolder, read_curves, replace_atomically
+
+SMOOTH = 25  # training batches averaged into one point of the training curve
+
+
+def _moving_mean(y: np.ndarray, k: int) -> np.ndarray:
+    return np.convolve(y, np.ones(k) / k, mode="valid")
+
+
+def draw(folder: RunFolder) -> Path | None:
+    """Draw RUN/curves.png from RUN/curves.csv; None when matplotlib is not installed."""
+    try:
+        import matplotlib
+    except ImportError:
+        return None
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = read_curves(folder.file(CURVES))
+    config = folder.config()
+    sets = list(dict.fromkeys(r["set"] for r in rows))
+    stores = [name for name in sets if name not in (TRAIN, VAL)]
+    if len(stores) == 1:  # the mean is that store's own curve
+        sets.remove(stores[0])
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    for ax, column, title in zip(axes, ("loss", "percent_error"), ("L1 loss", "mean percent error of d1"),
+                                 strict=True):
+        for name in sets:
+            its = np.array([int(r["iteration"]) for r in rows if r["set"] == name])
+            ys = np.array([float(r[column]) for r in rows if r["set"] == name])
+            if name == TRAIN:
+                k = max(1, min(SMOOTH, len(ys)))
+                ax.plot(its, ys, color="0.8", linewidth=0.5)
+                ax.plot(its[k - 1:], _moving_mean(ys, k), color="0.3",
+                        label=f"training batches ({k}-batch mean)")
+            else:
+                mean = "validation: " + (stores[0] if len(stores) == 1 else "mean of the stores")
+                ax.plot(its, ys, linewidth=2 if name == VAL else 1, label=mean if name == VAL else name)
+        ax.set_yscale("log")
+        ax.set_xlabel("iteration")
+        ax.set_title(title)
+        ax.grid(True, which="both", alpha=0.3)
+    axes[1].legend(fontsize=8)
+    fig.suptitle(f"{config.model}{' + radial' if config.radial else ''}, n = {config.n_obs}, "
+                 f"batch {config.batch_size}, lr {config.lr:g}, {config.preset} stream seed {config.seed}")
+    fig.tight_layout()
+    path = folder.file(PLOT)
+    replace_atomically(path, lambda p: fig.savefig(p, format="png", dpi=110))
+    plt.close(fig)
+    return path

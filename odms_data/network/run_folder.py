@@ -1,0 +1,180 @@
+"""The files of a training run (schemas/TRAINING.md) and the configuration that names the run.
+
+    RUN/config.json   the TrainConfig, and the software that wrote it
+    RUN/last.pt       the latest checkpoint: what a resumed run continues from
+    RUN/best.pt       the weights that did best on the validation stores so far
+    RUN/curves.csv    one row per training iteration and per validation store and validation
+    RUN/curves.png    the curves, drawn when the run completes
+
+Checkpoints and the configuration are written to a `.partial` sibling and renamed into place, so
+an interruption leaves the previous complete file.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+from typing import IO, Any
+
+from .._version import __version__
+from ..errors import InputError
+from ..simulate.params import PRESETS
+from ..store.manifests import load_manifest, split_names
+from .variants import variant
+
+CONFIG, LAST, BEST, CURVES, PLOT = "config.json", "last.pt", "best.pt", "curves.csv", "curves.png"
+CURVE_COLUMNS = ("iteration", "seconds", "set", "loss", "percent_error")
+TRAIN, VAL = "train", "val"  # curve sets besides each validation store's split
+AddRow = Callable[[int, float, str, float, float], None]  # (iteration, seconds, set, loss, percent error)
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """What a run trains, on what, and how: two runs of one config see the same batches.
+
+    `val`: the validation stores (paths); the best checkpoint is the one with the lowest mean of
+    their mean percent errors."""
+
+    model: str = "odn-l"
+    radial: bool = False
+    n_obs: int = 10
+    preset: str = "standard"
+    seed: int = 0
+    iterations: int = 5000
+    batch_size: int = 512
+    lr: float = 1e-3
+    val_every: int = 10
+    val: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        variant(self.model)
+        problems = [
+            f"{name} must be at least {least}, got {getattr(self, name)}"
+            for name, least in (("n_obs", 2), ("seed", 0), ("iterations", 1), ("batch_size", 1),
+                                ("val_every", 1))
+            if getattr(self, name) < least
+        ]
+        if self.preset not in PRESETS:
+            problems.append(f"unknown preset '{self.preset}' (choose from {', '.join(PRESETS)})")
+        if not self.lr > 0:
+            problems.append(f"lr must be positive, got {self.lr}")
+        if not self.val:
+            problems.append("give at least one validation store")
+        problems += [f"seed {self.seed} generates split {name} (splits/{name}.json): a stream of it "
+                     "would train on evaluation examples; choose another seed"
+                     for name in _splits_of_seed(self.seed)]
+        if problems:
+            raise InputError("training configuration: " + "; ".join(problems))
+
+    def to_json(self) -> dict[str, Any]:
+        return {**asdict(self), "val": list(self.val)}
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> TrainConfig:
+        known = {f.name for f in fields(cls)}
+        try:
+            values: dict[str, Any] = {k: tuple(v) if k == "val" else v for k, v in d.items() if k in known}
+            return cls(**values)
+        except TypeError as e:
+            raise InputError(f"training configuration: {e}") from None
+
+    def differences(self, other: TrainConfig) -> list[str]:
+        mine, theirs = self.to_json(), other.to_json()
+        return [f"{k} {theirs[k]!r} here, {mine[k]!r} asked" for k in mine if mine[k] != theirs[k]]
+
+
+def _splits_of_seed(seed: int) -> list[str]:
+    manifests = (load_manifest(name) for name in split_names())
+    return [m.name for m in manifests if m.generator and m.generator.get("seed") == seed]
+
+
+def replace_atomically(path: Path, write: Callable[[Path], object]) -> None:
+    """write(partial) to a sibling, then rename it onto `path`."""
+    partial = path.with_name(path.name + ".partial")
+    write(partial)
+    os.replace(partial, path)
+
+
+class RunFolder:
+    """A run's folder; `create` makes or reopens one for a config, `open` reads a finished one."""
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+
+    def file(self, name: str) -> Path:
+        return self.path / name
+
+    def is_run(self) -> bool:
+        return self.file(CONFIG).is_file()
+
+    def config(self) -> TrainConfig:
+        if not self.is_run():
+            raise InputError(f"{self.path}: not a training run (no {CONFIG}); see `odms-data train`")
+        try:
+            d = json.loads(self.file(CONFIG).read_text(encoding="utf-8"))
+        except (ValueError, UnicodeDecodeError) as e:
+            raise InputError(f"{self.file(CONFIG)}: not readable JSON ({e})") from None
+        return TrainConfig.from_json(d.get("config", {}))
+
+    def check(self, config: TrainConfig, overwrite: bool) -> bool:
+        """Whether the folder can hold a run of `config`: True when it holds one to resume
+        (InputError when it holds something else); writes nothing."""
+        if self.path.exists() and not self.path.is_dir():
+            raise InputError(f"{self.path}: exists and is not a folder; give a new folder for the run")
+        if self.is_run() and not overwrite:
+            diff = config.differences(self.config())
+            if diff:
+                raise InputError(f"{self.path}: holds a run of another configuration ({'; '.join(diff)}); "
+                                 "give another folder, or --overwrite to start this one again")
+            return self.file(LAST).is_file()
+        if not self.is_run() and self.path.is_dir() and any(self.path.iterdir()):
+            raise InputError(f"{self.path}: is not empty and holds no training run; "
+                             "give a new or empty folder")
+        return False
+
+    def create(self, config: TrainConfig, overwrite: bool) -> bool:
+        """Make the run folder for `config` (with `overwrite`, the run's own files there go first;
+        anything else in the folder stays), or keep it to resume; True when resuming."""
+        if self.check(config, overwrite):
+            return True
+        self.path.mkdir(parents=True, exist_ok=True)
+        for name in (LAST, BEST, CURVES, PLOT):
+            self.file(name).unlink(missing_ok=True)
+        text = json.dumps({"config": config.to_json(), "odms_data": __version__}, indent=2) + "\n"
+        replace_atomically(self.file(CONFIG), lambda p: p.write_text(text, encoding="utf-8"))
+        return False
+
+    @contextmanager
+    def curves(self, upto: int) -> Iterator[AddRow]:
+        """Yields add(iteration, seconds, set, loss, percent_error) appending to curves.csv, whose
+        rows after iteration `upto` (work a resumed run redoes) are dropped first."""
+        path = self.file(CURVES)
+        kept = [r for r in read_curves(path) if int(r["iteration"]) <= upto] if path.is_file() else []
+
+        def write(p: Path) -> None:
+            with open(p, "w", newline="", encoding="utf-8") as f:
+                out = csv.writer(f, lineterminator="\n")
+                out.writerow(CURVE_COLUMNS)
+                out.writerows([r[c] for c in CURVE_COLUMNS] for r in kept)
+
+        replace_atomically(path, write)
+        with open(path, "a", newline="", encoding="utf-8") as f:
+            yield _appender(csv.writer(f, lineterminator="\n"), f)
+
+
+def _appender(out: Any, f: IO[str]) -> AddRow:
+    def add(iteration: int, seconds: float, which: str, loss: float, percent_error: float) -> None:
+        out.writerow([iteration, f"{seconds:.3f}", which, f"{loss:.6g}", f"{percent_error:.6g}"])
+        f.flush()
+
+    return add
+
+
+def read_curves(path: Path) -> list[dict[str, str]]:
+    with open(path, newline="", encoding="utf-8") as f:
+        return list(csv.DictReader(f))
