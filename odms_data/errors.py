@@ -17,9 +17,29 @@ class StoreExistsError(StoreError):
     """The output store exists and `overwrite` was not asked for."""
 
 
-class StoreLockedError(StoreError):
+class OutputLockedError(OdmsError):
+    """Another process holds the write lock of an output."""
+
+
+class StoreLockedError(StoreError, OutputLockedError):
     """Another process holds the write lock of the store."""
 
 
 class DigestMismatchError(OdmsError):
     """A store's content digest differs from the one its split manifest records."""
+
+
+class OutputExistsError(OdmsError):
+    """An output file exists and `overwrite` was not asked for, or is something odms-data does not replace."""
+
+
+class WriteError(OdmsError):
+    """An output could not be written (a full disk, no permission); the message names its path."""
+
+
+class Interrupted(KeyboardInterrupt):
+    """A stop asked for by a signal (SIGINT, SIGTERM or SIGHUP), handled as Ctrl-C is."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(f"signal {signum}")
+        self.signum = signum

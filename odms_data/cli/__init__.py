@@ -1,24 +1,50 @@
 """The `odms-data` command line: a thin click layer over the library.
 
-Every command's errors go through `OdmsGroup.invoke`: the project's own exceptions (and OS
-errors such as a full disk) become one line on stderr and exit code 2, never a traceback.
-Set ODMS_DEBUG=1 to see the traceback of an unexpected error.
+Every error the user sees is one line `odms-data: error: ...` on stderr with exit code 2, never a
+traceback: the project's own exceptions and OS errors (`OdmsGroup.invoke`) and click's usage
+errors alike (`OdmsGroup.main`). SIGTERM and SIGHUP stop a command the way Ctrl-C does: what it
+was writing is removed, and the exit code is 128 + the signal's number (130 for Ctrl-C).
+Set ODMS_DEBUG=1 to see the traceback of an unexpected error (exit code 3).
 """
 
 from __future__ import annotations
 
 import difflib
+import json
+import math
 import os
+import signal
+import sys
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from importlib import import_module
+from typing import Any
 
 import click
 
 from .._version import __version__
-from ..errors import OdmsError
+from ..errors import Interrupted, OdmsError
+from ..interrupts import stop_requested
 
 
 def one_line(message: object) -> str:
     return " ".join(str(message).split())
+
+
+def echo_json(value: Any) -> None:
+    """Print `value` as JSON that every parser reads: a non-finite number becomes null."""
+
+    def finite(v: Any) -> Any:
+        if isinstance(v, float) and not math.isfinite(v):
+            return None
+        if isinstance(v, dict):
+            return {k: finite(x) for k, x in v.items()}
+        if isinstance(v, list | tuple):
+            return [finite(x) for x in v]
+        return v
+
+    click.echo(json.dumps(finite(value), indent=2, allow_nan=False))
 
 
 COMMANDS = {  # command name -> (module of this package, attribute): imported only when used
@@ -35,6 +61,36 @@ COMMANDS = {  # command name -> (module of this package, attribute): imported on
     "train": ("network_commands", "train"),
     "predict": ("network_commands", "predict"),
 }
+
+
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+
+@contextmanager
+def _signals_interrupt() -> Iterator[None]:
+    """Turn the stop signals into `Interrupted` (interrupts.stop_requested); once one came, later ones
+    are ignored, so the clean-up it starts is not cut short."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def stop(signum: int, frame: object) -> None:
+        for s in STOP_SIGNALS:
+            signal.signal(s, signal.SIG_IGN)
+        stop_requested(signum)
+
+    previous = {s: signal.signal(s, stop) for s in STOP_SIGNALS}
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+
+
+def _usage_line(e: click.ClickException) -> str:
+    ctx = getattr(e, "ctx", None)
+    where = f"; see '{ctx.command_path} --help'" if ctx is not None else ""
+    return f"odms-data: error: {one_line(e.format_message()).rstrip('.')}{where}"
 
 
 class OdmsGroup(click.Group):
@@ -55,6 +111,24 @@ class OdmsGroup(click.Group):
         module, attribute = COMMANDS[name]
         return getattr(import_module(f".{module}", __name__), attribute)
 
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+        if not standalone_mode:
+            return super().main(args, prog_name, complete_var, standalone_mode, **extra)
+        with _signals_interrupt():
+            try:
+                code = super().main(args, prog_name, complete_var, False, **extra)
+            except click.exceptions.NoArgsIsHelpError as e:  # a bare `odms-data`: its help
+                click.echo(e.ctx.get_help())
+                code = 0
+            except click.ClickException as e:  # usage errors: bad options, values, missing arguments
+                click.echo(_usage_line(e), err=True)
+                code = 2
+            except click.Abort as e:  # an interrupt while click itself was busy (a prompt, parsing)
+                signum = e.__context__.signum if isinstance(e.__context__, Interrupted) else signal.SIGINT
+                click.echo(f"odms-data: interrupted ({signal.Signals(signum).name})", err=True)
+                code = 128 + signum
+        sys.exit(code if isinstance(code, int) else 0)
+
     def invoke(self, ctx: click.Context):
         try:
             return super().invoke(ctx)
@@ -63,9 +137,11 @@ class OdmsGroup(click.Group):
         except (OdmsError, OSError) as e:
             click.echo(f"odms-data: error: {one_line(e)}", err=True)
             ctx.exit(2)
-        except KeyboardInterrupt:
-            click.echo("odms-data: interrupted; nothing was left half-written", err=True)
-            ctx.exit(130)
+        except KeyboardInterrupt as e:
+            signum = e.signum if isinstance(e, Interrupted) else signal.SIGINT
+            click.echo(f"odms-data: interrupted ({signal.Signals(signum).name}); nothing was left "
+                       "half-written", err=True)
+            ctx.exit(128 + signum)
         except Exception as e:
             if os.environ.get("ODMS_DEBUG"):
                 raise
@@ -75,6 +151,9 @@ class OdmsGroup(click.Group):
                 err=True,
             )
             ctx.exit(3)
+
+
+OVERWRITE_HELP = "Replace an existing output (only a file, or a store or empty folder for a store)."
 
 
 @click.group(cls=OdmsGroup, context_settings={"help_option_names": ["-h", "--help"]})

@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import json
-
 import click
 
 from ..store.reader import open_store
+from . import echo_json
 from .progress import progress
 
 
@@ -42,9 +41,9 @@ def export(stores, output, name, licence, examples_per_file, overwrite, as_json)
         exported = export_hub(stores, output, name=name, licence=licence, examples_per_file=examples_per_file,
                               overwrite=overwrite, progress=update)
     if as_json:
-        click.echo(json.dumps({"output": output, "splits": [
+        echo_json({"output": output, "splits": [
             {"split": e.split, "examples": e.examples, "files": e.files, "bytes": e.bytes} for e in exported
-        ]}, indent=2))
+        ]})
         return
     for e in exported:
         click.echo(f"{e.split}: {e.examples} examples in {len(e.files)} Parquet file(s), {e.bytes:,} bytes")

@@ -9,6 +9,7 @@ import click
 from ..errors import InputError
 from ..simulate.params import DEFAULT_EXAMPLES_PER_SHARD, PRESETS, GeneratorParams
 from ..simulate.params import preset as make_preset
+from . import echo_json
 from .progress import progress
 
 
@@ -99,9 +100,9 @@ def generate(split_name, count, preset, seed, n_obs, params, store_split, output
     if manifest is not None:
         check_against_manifest(attrs, manifest, output)
     if as_json:
-        click.echo(json.dumps({"output": output, "split": store_split, "examples": count, "preset": preset,
+        echo_json({"output": output, "split": store_split, "examples": count, "preset": preset,
                                "seed": seed or 0, "digest": attrs.digest,
-                               "manifest": f"splits/{split_name}.json" if manifest else None}, indent=2))
+                               "manifest": f"splits/{split_name}.json" if manifest else None})
         return
     click.echo(f"wrote {output}: {count} examples, digest {attrs.digest}")
     if manifest is not None:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Callable
 from contextlib import AbstractContextManager
@@ -21,6 +20,7 @@ from ..importers.synthia_protocol import (
     Selection,
     parse_classes,
 )
+from . import echo_json
 from .progress import progress
 
 
@@ -123,12 +123,12 @@ def odms(data_dir, out_dir, splits, fmt, overwrite, skip_bad, no_verify, workers
         )
     suffix = ".zarr" if fmt == "zarr" else ".h5"
     if as_json:
-        click.echo(json.dumps({"stores": [
+        echo_json({"stores": [
             {"split": attrs.split, "path": str(Path(out_dir) / f"{name}{suffix}"),
              "examples": attrs.counts["examples"], "frames": attrs.counts["frames"],
              "oddities": len(attrs.oddities), "matches_manifest": attrs.split == name,
              "digest": attrs.digest, "skipped": _skipped(attrs.oddities)}
-            for name, attrs in result.items()]}, indent=2))
+            for name, attrs in result.items()]})
         return
     for name, attrs in result.items():
         path = Path(out_dir) / f"{name}{suffix}"
@@ -187,9 +187,9 @@ def recording(mask_dir, positions, output, windows, n_obs, threshold, d1, name, 
             progress=lambda done, total: bars(str(mask_dir), done, total),
         )
     if as_json:
-        click.echo(json.dumps({"output": str(path), "examples": attrs.counts["examples"],
+        echo_json({"output": str(path), "examples": attrs.counts["examples"],
                                "labelled": attrs.counts["labelled"], "frames": attrs.counts["frames"],
-                               "digest": attrs.digest, "skipped": _skipped(attrs.oddities)}, indent=2))
+                               "digest": attrs.digest, "skipped": _skipped(attrs.oddities)})
         return
     click.echo(f"wrote {path}: {attrs.counts['examples']} example(s) ({attrs.counts['labelled']} labelled), "
                f"{attrs.counts['frames']} frames, digest {attrs.digest}")
@@ -264,7 +264,7 @@ def synthia(seq_dirs, output, camera, classes, frames, stride, min_area, no_bord
             skip_bad=skip_bad, workers=workers, progress=None if as_json else bars,
         )
     if as_json:
-        click.echo(json.dumps(summary, indent=2))
+        echo_json(summary)
         return
     for seq in summary["sequences"]:
         def tally(counts: dict[str, int]) -> str:

@@ -10,10 +10,19 @@ import click
 
 from ..benchmark import FAMILIES, split_order
 from ..errors import InputError
-from ..evaluation.ground_truth import DEFAULT_DATA, ENV_VAR, data_locations, find_stores, load_truth
+from ..evaluation.ground_truth import (
+    DEFAULT_DATA,
+    ENV_VAR,
+    data_locations,
+    find_stores,
+    load_truth,
+    stores_by_split,
+)
 from ..evaluation.vosde import DEFAULT_N_OBS
 from ..evaluation.vosde import vosde as run_vosde
+from ..outputs import check_new_file, write_text
 from ..store.reader import open_store
+from . import echo_json
 from .progress import progress
 
 DATA_HELP = (f"Folder of ground-truth stores, or one store (repeatable). Default: ${ENV_VAR} "
@@ -33,7 +42,9 @@ DATA_HELP = (f"Folder of ground-truth stores, or one store (repeatable). Default
 @click.option("--citation", help="Citation for --entry.")
 @click.option("--link", help="Link (http/https) for --entry.")
 @click.option("--n-obs", type=click.IntRange(min=2), help="Observations per example used (for --entry).")
-def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name, citation, link, n_obs):
+@click.option("--overwrite", is_flag=True, help="Replace existing --plot and --entry files.")
+def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name, citation, link, n_obs,
+          overwrite):
     """Score a predictions file (schemas/PREDICTIONS.md) against the ground-truth stores.
 
     Per split: n, mean and median percent error, mean absolute error; All per family (val,
@@ -55,16 +66,21 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
         raise InputError("give at most one of --json and --markdown")
     if bool(entry) != bool(name):
         raise InputError("--entry and --name go together: --name NAME --entry OUT.json")
+    if plot and entry and Path(plot).absolute() == Path(entry).absolute():
+        raise InputError(f"--plot and --entry both name {plot}; give two files")
     if plot:
-        from ..evaluation.error_plots import pyplot
+        from ..evaluation.error_plots import plot_format
 
-        pyplot()  # fail before scoring when matplotlib is missing
-    preds = read_predictions(predictions)
+        check_new_file(plot, overwrite, "--plot")
+        plot_format(plot)  # before scoring: matplotlib is there and knows the suffix
+    if entry:
+        check_new_file(entry, overwrite, "--entry", (".json",))
     stores = find_stores(data_locations(data))
     truths = {split: load_truth(path) for split, path in stores.items()}
+    preds = read_predictions(predictions, max_rows=sum(len(t.example_ids) for t in truths.values()))
     report = score_predictions(preds, truths, allow_partial=allow_partial)
     if as_json:
-        click.echo(json.dumps(report.to_json(), indent=2))
+        echo_json(report.to_json())
     elif markdown:
         click.echo(render_markdown(report), nl=False)
     else:
@@ -72,12 +88,13 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
     if plot:
         from ..evaluation.error_plots import plot_errors
 
-        plot_errors(report, plot)
+        plot_errors(report, plot, overwrite=overwrite)
         click.echo(f"wrote {plot}", err=True)
     if entry:
         e = entry_from_report(report, name, citation=citation, link=link, n_obs=n_obs,
-                              predictions_bytes=Path(predictions).read_bytes())
-        Path(entry).write_text(json.dumps(e, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
+                              predictions_sha256=preds.sha256)
+        write_text(entry, json.dumps(e, indent=2, ensure_ascii=False, allow_nan=False) + "\n",
+                   overwrite=overwrite, option="--entry")
         click.echo(f"wrote {entry}", err=True)
 
 
@@ -92,8 +109,9 @@ def baseline():
 @click.option("--n-obs", type=click.IntRange(min=2), default=DEFAULT_N_OBS, show_default=True,
               help="Observations used per example (evenly spaced when an example has more).")
 @click.option("-o", "--output", type=click.Path(), required=True, help="Predictions CSV to write.")
+@click.option("--overwrite", is_flag=True, help="Replace an existing predictions file.")
 @click.option("--json", "as_json", is_flag=True, help="Print the per-store counts as JSON.")
-def vosde(stores, data, n_obs, output, as_json):
+def vosde(stores, data, n_obs, output, overwrite, as_json):
     """VOS-DE (WACV 2020), the ODMS baseline, from the stored mask statistics.
 
     STORES are split names (looked up in the data folders) or store paths; none means every
@@ -108,6 +126,7 @@ def vosde(stores, data, n_obs, output, as_json):
     """
     from ..evaluation.predictions import write_predictions
 
+    check_new_file(output, overwrite, "-o", (".csv",))
     paths = []
     found = None
     for s in stores:
@@ -121,7 +140,9 @@ def vosde(stores, data, n_obs, output, as_json):
             raise InputError(f"{s}: neither a store path nor a split in the data folders{hint} "
                              f"(they hold: {', '.join(sorted(found))})")
         paths.append(found[s])
-    if not stores:
+    if stores:
+        paths = list(stores_by_split(paths).values())  # a store named twice is scored once
+    else:
         found = find_stores(data_locations(data))
         paths = [found[s] for s in sorted(found, key=split_order)]
     rows, counts = [], []
@@ -133,10 +154,9 @@ def vosde(stores, data, n_obs, output, as_json):
             rows += r.rows()
             counts.append({"split": r.split, "examples": len(r.d1), "unsolvable": int(r.unsolvable.sum()),
                            "empty_masks": int(r.empty_masks.sum())})
-    write_predictions(output, rows)
+    write_predictions(output, rows, overwrite=overwrite)
     if as_json:
-        click.echo(json.dumps({"output": output, "n_obs": n_obs, "predictions": len(rows), "splits": counts},
-                              indent=2))
+        echo_json({"output": output, "n_obs": n_obs, "predictions": len(rows), "splits": counts})
         return
     for c in counts:
         click.echo(f"{c['split']}: {c['examples']} examples, {c['unsolvable']} unsolvable (predicted 0), "
@@ -165,9 +185,9 @@ def leaderboard(family, metric, folder, as_json):
     entries = load_entries(folder)
     if as_json:
         keys = ("name", "n_obs", "training_data", "radial_input", "figures", "link", "citation")
-        click.echo(json.dumps([
+        echo_json([
             {"rank": rank, **{k: e.get(k) for k in keys}, "all": family_all(e, family),
              "results": e["results"][family]}
-            for rank, e in enumerate(ranked(entries, family), 1)], indent=2))
+            for rank, e in enumerate(ranked(entries, family), 1)])
         return
     click.echo(render_markdown(entries, family, metric), nl=False)

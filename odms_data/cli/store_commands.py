@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import json
-
 import click
 import numpy as np
 
+from ..outputs import check_new_file
 from ..store.reader import open_store
+from . import echo_json
 from .progress import progress
 
 
@@ -34,8 +34,8 @@ def validate(store, as_json):
     with progress(frames, f"validating {store}") as update:
         report = validate_store(store, update)
     if as_json:
-        click.echo(json.dumps({"path": report.path, "ok": report.ok, "problems": report.problems,
-                               "warnings": report.warnings, "digest": report.digest}, indent=2))
+        echo_json({"path": report.path, "ok": report.ok, "problems": report.problems,
+                   "warnings": report.warnings, "digest": report.digest})
     else:
         for w in report.warnings:
             click.echo(f"warning: {store}: {w}")
@@ -68,7 +68,7 @@ def info(store, as_json):
             "example_ids": {"first": s.example_ids[0], "last": s.example_ids[-1]} if len(s) else None,
         }
     if as_json:
-        click.echo(json.dumps(summary, indent=2))
+        echo_json(summary)
         return
     gen = a.generator
     lines = [
@@ -114,7 +114,7 @@ def convert(src, dst, fmt, overwrite, as_json):
     with progress(total, f"converting to {dst}") as update:
         digest = convert_store(src, dst, fmt, overwrite=overwrite, progress=update)
     if as_json:
-        click.echo(json.dumps({"source": src, "output": dst, "digest": digest}, indent=2))
+        echo_json({"source": src, "output": dst, "digest": digest})
         return
     click.echo(f"wrote {dst}: digest {digest}")
 
@@ -122,16 +122,21 @@ def convert(src, dst, fmt, overwrite, as_json):
 @click.command()
 @click.argument("store", type=click.Path())
 @click.argument("example_id")
-@click.option("-o", "--output", type=click.Path(), required=True, help="PNG file to write.")
-def show(store, example_id, output):
+@click.option("-o", "--output", type=click.Path(), required=True,
+              help="Image file to write (PNG, or another format by its suffix).")
+@click.option("--overwrite", is_flag=True, help="Replace an existing image file.")
+def show(store, example_id, output, overwrite):
     """Draw one example's masks as a contact sheet, with z and depth under each.
 
     \b
     Example:
       odms-data show sim-val.zarr sim-val/000042 -o sheet.png
     """
-    from ..store.contact_sheet import contact_sheet
+    from ..store.contact_sheet import contact_sheet, image_format, save_image
 
+    check_new_file(output, overwrite, "-o")
+    image_format(output)
     with open_store(store) as s:
-        contact_sheet(s.example(example_id)).save(output)
+        sheet = contact_sheet(s.example(example_id))
+    save_image(sheet, output, overwrite=overwrite)
     click.echo(f"wrote {output}")

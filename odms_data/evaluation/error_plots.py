@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError
+from ..outputs import atomic_file
 from .scoring import ScoreReport
 
 LINEAR_BELOW = 10  # percent: the y axis is symlog, linear up to here so that 0 shows
@@ -27,8 +29,25 @@ def pyplot():
     return plt
 
 
-def plot_errors(report: ScoreReport, path: str) -> None:
-    """Scatter of each example's percent error against its true depth d1, with the binned median."""
+def plot_format(path: str) -> str:
+    """The file format matplotlib writes for `path`'s suffix; InputError when it has none it knows
+    (matplotlib would otherwise add `.png` to the name)."""
+    pyplot()
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    known = FigureCanvasBase.get_supported_filetypes()
+    suffix = Path(path).suffix.lower().lstrip(".")
+    if suffix not in known:
+        what = f"suffix .{suffix} is not an image format matplotlib writes" if suffix else "has no suffix"
+        raise InputError(f"--plot {path}: {what}; name it e.g. errors.png "
+                         f"({', '.join('.' + k for k in sorted(known))})")
+    return suffix
+
+
+def plot_errors(report: ScoreReport, path: str, *, overwrite: bool = False) -> None:
+    """Scatter of each example's percent error against its true depth d1, with the binned median,
+    written to `path` (format from its suffix) as every output is (outputs.atomic_file)."""
+    fmt = plot_format(path)
     plt = pyplot()
     from matplotlib import ticker
 
@@ -57,5 +76,6 @@ def plot_errors(report: ScoreReport, path: str) -> None:
     title = f"{report.predictions}" + ("  (PARTIAL)" if report.partial else "")
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    with atomic_file(path, overwrite=overwrite, option="--plot") as partial:
+        fig.savefig(partial, dpi=110, format=fmt)
     plt.close(fig)

@@ -51,8 +51,18 @@ def find_stores(locations: Iterable[Path]) -> dict[str, Path]:
                 f"{loc}: no such data folder or store (give --data DIR or set {ENV_VAR}; "
                 f"default {DEFAULT_DATA})"
             )
+    return stores_by_split(paths, locations)
+
+
+def stores_by_split(paths: Iterable[Path], locations: Sequence[Path] = ()) -> dict[str, Path]:
+    """{split: store path} of the stores at `paths` (one store named twice counts once); two
+    stores of one split are an error."""
     found: dict[str, Path] = {}
+    seen: set[Path] = set()
     for p in paths:
+        if p.resolve() in seen:
+            continue
+        seen.add(p.resolve())
         with open_store(str(p)) as s:
             split = s.attrs.split
         if split in found:
@@ -86,11 +96,6 @@ class SplitTruth:
 
 def load_truth(path: Path) -> SplitTruth:
     """The ids and labels of the store at `path` (no masks are read)."""
-    with open_store(str(path)) as s:
+    with open_store(str(path)) as s:  # the reader refuses ids that are not unique or lack '<split>/'
         ids, d1 = s.example_ids, s.d1
-        bad = [e for e in ids if not e.startswith(s.attrs.split + "/")]
-        if bad:
-            raise StoreError(
-                f"{path}: example id {bad[0]!r} does not start with its split '{s.attrs.split}/'"
-            )
         return SplitTruth(s.attrs.split, s.attrs.domain, str(path), s.attrs.digest, ids, d1)

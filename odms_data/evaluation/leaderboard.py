@@ -9,6 +9,7 @@ from __future__ import annotations
 import datetime
 import hashlib
 import json
+import math
 from functools import cache
 from pathlib import Path
 from typing import Any
@@ -125,7 +126,7 @@ def render_markdown(entries: list[dict], family: str = "test", metric: str = "pe
 
 def entry_from_report(
     report: ScoreReport, name: str, *, method: str | None = None, citation: str | None = None,
-    link: str | None = None, n_obs: int | None = None, predictions_bytes: bytes = b"",
+    link: str | None = None, n_obs: int | None = None, predictions_sha256: str = "",
 ) -> dict:
     """A computed leaderboard entry from a complete score of official splits, schema-checked."""
     if report.partial:
@@ -136,6 +137,9 @@ def entry_from_report(
         if off is None:
             continue
         d, fam = off
+        if not math.isfinite(s.mean_percent_error + s.mean_abs_error_m):
+            raise InputError(f"{report.predictions}: the errors of split {s.split} are too large to be "
+                             "represented (infinite); a leaderboard entry needs finite figures")
         results.setdefault(fam, {})[d] = {
             "percent": round(s.mean_percent_error, 4), "abs_m": round(s.mean_abs_error_m, 6),
             "median_percent": round(s.median_percent_error, 4), "n": s.n,
@@ -155,7 +159,7 @@ def entry_from_report(
         "scored": {
             "by": f"odms-data {__version__}",
             "date": datetime.date.today().isoformat(),
-            "predictions_sha256": hashlib.sha256(predictions_bytes).hexdigest(),
+            "predictions_sha256": predictions_sha256 or hashlib.sha256(b"").hexdigest(),
             "stores": {s: report.digests[s] for s in sorted(report.digests)},
         },
     }

@@ -1,7 +1,9 @@
 """Predictions files (schemas/PREDICTIONS.md): reading with strict checks, and writing.
 
 A predictions file is UTF-8 CSV with the header `split,example_id,d1` and one row per example.
-`read_predictions` checks the file's form (encoding, delimiter, header, fields, numbers);
+`read_predictions` checks the file's form (encoding, delimiter, header, fields, numbers) as it
+reads it, line by line: binary content, an overlong line or more rows than the ground truth has
+examples stop it at once, so memory follows the examples scored, never the file's size.
 `check_against` checks its rows against the ground truth (splits, ids, duplicates, coverage).
 Every problem is one InputError line naming the file, the first offending lines or ids and
 how many there are.
@@ -12,10 +14,10 @@ from __future__ import annotations
 import codecs
 import csv
 import difflib
+import hashlib
 import io
 import re
-import warnings
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -23,16 +25,20 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError
+from ..outputs import atomic_file
 
 COLUMNS = ("split", "example_id", "d1")
 HEADER = ",".join(COLUMNS)
 SHOW = 3  # offending rows or ids named in a message
+MAX_LINE = 4096  # characters in a line: a longer one is not a predictions row
+BLOCK = 1 << 20  # characters read at a time
 OTHER_DELIMITERS = {";": "';'", "\t": "a tab", "|": "'|'"}
 BOMS = {
     codecs.BOM_UTF32_LE: "UTF-32", codecs.BOM_UTF32_BE: "UTF-32",
     codecs.BOM_UTF8: "UTF-8 with a byte-order mark",
     codecs.BOM_UTF16_LE: "UTF-16", codecs.BOM_UTF16_BE: "UTF-16",
 }
+_NOT_UTF8 = re.compile("[\udc80-\udcff]")  # the bytes 'surrogateescape' could not decode
 
 
 @dataclass
@@ -41,6 +47,7 @@ class Predictions:
 
     path: str
     frame: pd.DataFrame  # columns split (str), example_id (str), d1 (float64), line (int)
+    sha256: str = ""  # of the file's bytes
 
     def __len__(self) -> int:
         return len(self.frame)
@@ -63,23 +70,6 @@ def _lines(frame: pd.DataFrame, mask: np.ndarray, what: str = "") -> str:
     shown = [f"line {r.line}" + (f" ({getattr(r, what)!r})" if what else "") for r in bad.itertuples()]
     n = int(mask.sum())
     return f"{n} row{'s' if n != 1 else ''}: {_listing(shown, n)}"
-
-
-def _decode(path: str, raw: bytes) -> str:
-    if not raw.strip():
-        raise InputError(f"{path}: the file is empty; it needs the header '{HEADER}' and one row per example")
-    for bom, name in BOMS.items():
-        if raw.startswith(bom):
-            raise InputError(f"{path}: the file is encoded as {name}; save it as plain UTF-8 (no BOM)")
-    if b"\0" in raw[:4096]:
-        raise InputError(f"{path}: the file holds NUL bytes (UTF-16 or binary?); save it as plain UTF-8")
-    try:
-        return raw.decode("utf-8")
-    except UnicodeDecodeError as e:
-        line = raw[: e.start].count(b"\n") + 1
-        raise InputError(
-            f"{path}: line {line} is not valid UTF-8 (byte 0x{raw[e.start]:02x}); save the file as UTF-8"
-        ) from None
 
 
 def _looks_like_data(fields: list[str]) -> bool:
@@ -126,39 +116,136 @@ def _check_header(path: str, first: str) -> None:
     raise InputError(f"{path}: header {first.strip()!r} is not '{HEADER}': {'; '.join(hints)}")
 
 
-def _field_count_error(path: str, line: int, fields: int) -> None:
-    hint = " (a decimal comma? d1 must use '.')" if fields == 4 else ""
-    raise InputError(f"{path}: line {line} has {fields} fields, expected 3{hint}") from None
+class _Hashed(io.RawIOBase):
+    """A binary file read through, hashing what is read."""
+
+    def __init__(self, raw: io.RawIOBase) -> None:
+        self.raw, self.sha = raw, hashlib.sha256()
+
+    def readable(self) -> bool:
+        return True
+
+    def readinto(self, b) -> int:
+        n = self.raw.readinto(b) or 0
+        self.sha.update(memoryview(b)[:n])
+        return n
+
+    def close(self) -> None:
+        self.raw.close()
+        super().close()
 
 
-def read_predictions(path: str | Path) -> Predictions:
-    """Read and check the form of a predictions file; raises InputError on the first problem."""
-    path = str(path)
+def _open(path: str) -> tuple[io.BufferedReader, _Hashed]:
     try:
-        raw = Path(path).read_bytes()
+        raw = open(path, "rb", buffering=0)
     except FileNotFoundError:
         raise InputError(f"{path}: no such predictions file") from None
-    text = _decode(path, raw)
-    _check_header(path, text.splitlines()[0])
+    except IsADirectoryError:
+        raise InputError(f"{path}: is a folder, not a predictions file") from None
+    except OSError as e:
+        raise InputError(f"{path}: cannot be read ({e.strerror or e})") from None
+    hashed = _Hashed(raw)
+    return io.BufferedReader(hashed), hashed
+
+
+def _blocks(path: str, binary: io.BufferedReader) -> Iterator[tuple[int, list[str]]]:
+    """(number of the first line, whole lines without their line ends) of the file as UTF-8 text,
+    a block at a time, each checked as it comes: the encoding, NUL bytes and the line length."""
+    head = binary.peek(4)[:4]
+    for bom, name in BOMS.items():
+        if head.startswith(bom):
+            raise InputError(f"{path}: the file is encoded as {name}; save it as plain UTF-8 (no BOM)")
+    text = io.TextIOWrapper(binary, encoding="utf-8", errors="surrogateescape", newline=None)
+    number, tail = 1, ""
+    while True:
+        chunk = text.read(BLOCK)
+        if chunk:
+            lines = (tail + chunk).split("\n")
+            tail = lines.pop()
+        else:  # the end: a last line without its line end (a final line end makes no row)
+            lines, tail = [tail] if tail else [], ""
+        block = "\n".join(lines)
+        if "\0" in block or "\0" in tail:
+            raise InputError(f"{path}: the file holds NUL bytes (UTF-16 or binary?); save it as plain UTF-8")
+        bad = None if block.isascii() else _NOT_UTF8.search(block)
+        if bad:
+            raise InputError(f"{path}: line {number + block.count(chr(10), 0, bad.start())} is not valid "
+                             f"UTF-8 (byte 0x{ord(bad.group()) - 0xDC00:02x}); save the file as UTF-8")
+        longest = max(map(len, lines), default=0)
+        if longest > MAX_LINE or len(tail) > MAX_LINE:
+            at = number + next((i for i, x in enumerate(lines) if len(x) > MAX_LINE), len(lines))
+            raise InputError(f"{path}: line {at} is longer than {MAX_LINE} characters; a predictions "
+                             f"file has short rows '{HEADER}'")
+        if lines:
+            yield number, lines
+        number += len(lines)
+        if not chunk:
+            return
+
+
+def _field_count_error(path: str, line: int, fields: int) -> InputError:
+    hint = " (a decimal comma? d1 must use '.')" if fields == 4 else ""
+    return InputError(f"{path}: line {line} has {fields} fields, expected 3{hint}")
+
+
+def _parse(path: str, first: int, lines: list[str]) -> list[list[str]]:
+    """The CSV rows of `lines`, one per line (a blank line: no fields); InputError for a row that
+    is not CSV, spans lines (an unclosed quote) or has another number of fields than 3."""
+    reader = csv.reader(lines, skipinitialspace=True)
     try:
-        with warnings.catch_warnings():
-            # pandas only warns when the first row is longer than the header
-            warnings.simplefilter("error", pd.errors.ParserWarning)
-            frame = pd.read_csv(
-                io.StringIO(text), dtype=str, keep_default_na=False, na_filter=False,
-                skip_blank_lines=False, skipinitialspace=True, index_col=False,
-            )
-    except pd.errors.ParserWarning:
-        _field_count_error(path, 2, len(next(csv.reader([text.splitlines()[1]]))))
-    except pd.errors.ParserError as e:
-        m = re.search(r"Expected (\d+) fields in line (\d+), saw (\d+)", str(e))
-        if not m:
-            raise InputError(f"{path}: not a readable CSV file ({' '.join(str(e).split())})") from None
-        _field_count_error(path, int(m[2]), int(m[3]))
-    frame.columns = list(COLUMNS)
-    frame = pd.DataFrame({c: [v.strip() for v in frame[c].tolist()] for c in frame.columns})
+        rows = list(reader)
+    except csv.Error:
+        rows = []
+    if len(rows) != len(lines) or reader.line_num != len(lines):  # find the culprit, row by row
+        reader = csv.reader(iter(lines), skipinitialspace=True)
+        for i in range(len(lines)):
+            try:
+                next(reader)
+            except csv.Error as e:
+                raise InputError(f"{path}: line {first + i} is not a readable CSV row ({e})") from None
+            if reader.line_num > i + 1:
+                raise InputError(f"{path}: a quoted field runs from line {first + i} to line "
+                                 f"{first + reader.line_num - 1}; is a quote not closed?")
+    for i, fields in enumerate(rows):
+        if len(fields) != 3 and any(f.strip() for f in fields):
+            raise _field_count_error(path, first + i, len(fields))
+    if any(" " in line or "\t" in line for line in lines):  # spaces around a field are ignored
+        rows = [[f.strip() for f in fields] for fields in rows]
+    return rows
+
+
+def read_predictions(path: str | Path, max_rows: int | None = None) -> Predictions:
+    """Read and check the form of a predictions file; raises InputError on the first problem.
+
+    `max_rows` (the number of examples in the ground truth) stops the reading as soon as the file
+    has more rows than that.
+    """
+    path = str(path)
+    binary, hashed = _open(path)
+    rows: list[list[str]] = []
+    header = None
+    with binary:
+        for first, lines in _blocks(path, binary):
+            if header is None:
+                k = next((i for i, line in enumerate(lines) if line.strip()), None)
+                if k is None:
+                    continue
+                if first + k > 1:
+                    raise InputError(f"{path}: line 1 is blank; the first line must be the header '{HEADER}'")
+                header = lines[k]
+                _check_header(path, header)
+                first, lines = first + k + 1, lines[k + 1 :]
+            rows += _parse(path, first, lines)
+            if max_rows is not None and len(rows) > max_rows:
+                raise InputError(
+                    f"{path}: has more than {max_rows} rows, but the ground-truth stores hold {max_rows} "
+                    "examples in all (one row each); are they the right stores?"
+                )
+    if header is None:
+        raise InputError(f"{path}: the file is empty; it needs the header '{HEADER}' and one row per example")
+    rows = [r if len(r) == 3 else ["", "", ""] for r in rows]  # the others are blank (see _parse)
+    frame = pd.DataFrame(rows, columns=list(COLUMNS), dtype=object)
     frame["line"] = np.arange(2, len(frame) + 2)
-    # a final newline makes no row; blank lines anywhere else are errors
     blank = (frame[list(COLUMNS)] == "").all(axis=1).to_numpy()
     if blank.any():
         raise InputError(f"{path}: blank lines in the file, {_lines(frame, blank)}")
@@ -169,15 +256,18 @@ def read_predictions(path: str | Path) -> Predictions:
         if empty.any():
             raise InputError(f"{path}: {col} is missing or empty in {_lines(frame, empty)}")
     d1 = pd.to_numeric(frame["d1"], errors="coerce").to_numpy(np.float64)
-    literal_nan = frame["d1"].str.lower().str.lstrip("+-").eq("nan").to_numpy()
-    non_numeric = np.isnan(d1) & ~literal_nan
+    non_numeric = np.isnan(d1)
+    for i in np.flatnonzero(non_numeric):  # 'nan' is a number, though not a finite one
+        non_numeric[i] = frame["d1"].iat[i].lower().lstrip("+-") != "nan"
     if non_numeric.any():
         raise InputError(f"{path}: d1 is not a number in {_lines(frame, non_numeric, 'd1')}")
     not_finite = ~np.isfinite(d1)
     if not_finite.any():
         raise InputError(f"{path}: d1 is NaN or infinite in {_lines(frame, not_finite, 'd1')}")
     frame["d1"] = d1
-    return Predictions(path, frame[["split", "example_id", "d1", "line"]].reset_index(drop=True))
+    frame = frame.astype({"split": str, "example_id": str})
+    return Predictions(path, frame[["split", "example_id", "d1", "line"]].reset_index(drop=True),
+                       hashed.sha.hexdigest())
 
 
 def check_against(
@@ -236,12 +326,17 @@ def check_against(
 
 
 def write_predictions(
-    path: str | Path, rows: Iterable[tuple[str, str, float]] | pd.DataFrame
+    path: str | Path, rows: Iterable[tuple[str, str, float]] | pd.DataFrame, *, overwrite: bool = False
 ) -> int:
-    """Write `(split, example_id, d1)` rows; floats round-trip exactly. Returns the row count."""
+    """Write `(split, example_id, d1)` rows as every output is written (outputs.atomic_file);
+    floats round-trip exactly. Returns the row count."""
     frame = rows if isinstance(rows, pd.DataFrame) else pd.DataFrame(list(rows), columns=list(COLUMNS))
     frame = frame[list(COLUMNS)]
-    if not np.isfinite(frame["d1"].to_numpy(np.float64)).all():
-        raise InputError(f"{path}: refusing to write NaN or infinite predictions")
-    frame.to_csv(path, index=False, lineterminator="\n")
+    bad = ~np.isfinite(frame["d1"].to_numpy(np.float64))
+    if bad.any():
+        first = frame[bad].iloc[0]
+        raise InputError(f"{int(bad.sum())} prediction(s) are NaN or infinite, first for "
+                         f"{first['example_id']} of split {first['split']}; nothing was written to {path}")
+    with atomic_file(path, overwrite=overwrite, option="-o") as partial:
+        frame.to_csv(partial, index=False, lineterminator="\n")
     return len(frame)

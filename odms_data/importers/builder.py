@@ -50,7 +50,8 @@ def build_store(
     """Write `plan` into a new store at `out`; BadFiles (nothing written) when a mask file is bad.
 
     `collect_all` decodes every file even after a bad one, so that BadFiles lists all of them.
-    `check(attrs)` runs before the commit and may amend the attributes or raise to abort.
+    `check(attrs)` runs before the commit and may amend the attributes or raise to abort; a split
+    it renames gives the ids its prefix (the plan keeps `id_room` bytes free for it).
     """
     F, E = len(plan.masks), len(plan.d1)
     if F == 0 or E == 0:
@@ -63,7 +64,7 @@ def build_store(
     fps = max(fpc, plan.frames_per_shard // fpc * fpc)
     layout = Layout(
         height=H, width=W, n_frames=F, n_examples=E, max_obs=plan.frame_index.shape[1],
-        id_width=_width(plan.ids), source_width=_width(plan.sources), frames_per_chunk=fpc,
+        id_width=_width(plan.ids) + plan.id_room, source_width=_width(plan.sources), frames_per_chunk=fpc,
         frames_per_shard=fps, examples_per_chunk=min(E, 4096),
     )
     with StoreWriter(str(out), fmt, overwrite=overwrite) as w:
@@ -95,19 +96,30 @@ def build_store(
                     progress(stop - r.start)
         if failures:
             raise BadFiles(failures)
-        w.write_examples(0, plan.frame_index, plan.d1, plan.ids, plan.sources)
-        digest = StoreDigest(H, W, E)
-        digest.update(
-            example_digest(plan.ids[e], plan.sources[e], plan.d1[e], fd[row[row >= 0]])
-            for e, row in enumerate(plan.frame_index)
-        )
+
+        def digest_with(ids: list[str]) -> str:
+            digest = StoreDigest(H, W, E)
+            digest.update(
+                example_digest(ids[e], plan.sources[e], plan.d1[e], fd[row[row >= 0]])
+                for e, row in enumerate(plan.frame_index)
+            )
+            return digest.hexdigest()
+
         attrs = StoreAttrs(
             split=plan.split, domain=plan.domain, image_size=(H, W),
             counts={"examples": E, "frames": F, "labelled": int((~np.isnan(plan.d1)).sum())},
             source=plan.source, oddities=plan.oddities + example_oddities(plan, area),
-            digest=digest.hexdigest(),
+            digest=digest_with(plan.ids),
         )
         if check:
             check(attrs)
+        ids = plan.ids
+        if attrs.split != plan.split:  # renamed by the check: ids start with their store's split
+            ids = [attrs.split + i[len(plan.split):] for i in plan.ids]
+            attrs.digest = digest_with(ids)
+            renamed = dict(zip(plan.ids, ids, strict=True))
+            for o in attrs.oddities:  # an example's oddity follows its id (skipped folders keep theirs)
+                o["example"] = renamed.get(o["example"], o["example"])
+        w.write_examples(0, plan.frame_index, plan.d1, ids, plan.sources)
         w.commit(attrs)
     return attrs

@@ -4,7 +4,8 @@ A file is checked before it is decoded (PNG: signature, chunk CRCs, IEND; JPEG: 
 markers), so a truncated or corrupt file is reported as such rather than decoded to garbage.
 Binarisation: a mask whose pixels take at most two values, one of them 0, is binary and
 everything nonzero is object (0/1 and 0/255 PNGs, 1-bit PNGs); any other mask (JPEG, anti-aliased)
-is thresholded, pixels >= `threshold` being object.
+is thresholded, pixels >= `threshold` being object. A colour mask is read as grey; a PNG with
+transparency is read from its alpha channel when the object is drawn there (`_rgba_mask`).
 """
 
 from __future__ import annotations
@@ -103,9 +104,26 @@ def read_mask(path: Path, threshold: int = DEFAULT_THRESHOLD) -> np.ndarray:
         data = _read(path)
         _check_jpeg(path, data)
         img = _decode(path, data, cv2.IMREAD_GRAYSCALE)
+    if img.ndim == 3 and img.shape[2] == 4:
+        return _rgba_mask(path, img, threshold)
     if img.ndim == 3:
-        img = cv2.cvtColor(img, cv2.COLOR_BGRA2GRAY if img.shape[2] == 4 else cv2.COLOR_BGR2GRAY)
+        img = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
     return binarize(img, threshold)
+
+
+def _rgba_mask(path: Path, img: np.ndarray, threshold: int) -> np.ndarray:
+    """The mask of a PNG with transparency: its colour when the alpha channel is uniform, its alpha
+    when the colour is uniform (the object drawn in transparency only), and either when both draw
+    the same mask; InputError when colour and alpha draw different masks."""
+    colour, alpha = img[:, :, :3], np.ascontiguousarray(img[:, :, 3])
+    by_colour = binarize(cv2.cvtColor(colour, cv2.COLOR_BGR2GRAY), threshold)
+    if alpha.min() == alpha.max():
+        return by_colour
+    by_alpha = binarize(alpha, threshold)
+    if (colour == colour[0, 0]).all() or np.array_equal(by_colour, by_alpha):
+        return by_alpha
+    raise InputError(f"{path}: its colour and its alpha channel (transparency) draw different masks; "
+                     "save the mask as a grayscale PNG, or make one of them uniform")
 
 
 @dataclass(frozen=True)

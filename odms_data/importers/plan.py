@@ -53,6 +53,7 @@ class Plan:
     frames_per_shard: int
     oddities: list[dict[str, str]] = field(default_factory=list)
     threshold: int = DEFAULT_THRESHOLD
+    id_room: int = 0  # bytes kept free in the id array, for a split renamed before the commit
 
 
 def store_name(name: str | None, out: Path, fallback: str, kind: str) -> str:

@@ -68,6 +68,7 @@ def read_positions(
     files, z, depth, skipped = [], [], [], []
     seen_frame: dict[str, int] = {}
     seen_z: dict[float, int] = {}
+    seen_file: dict[tuple[int, int], tuple[int, str]] = {}  # (device, inode): a file named twice
     named = set()  # frames named on any row, good or bad
     for i, row in enumerate(table.itertuples(index=False)):
         where = f"{positions} line {i + 2}"
@@ -91,12 +92,18 @@ def read_positions(
                 inner = sorted(mask_dir.glob(f"*/{frame}"))  # MASK_DIR one folder too high?
                 hint = f"; did you mean MASK_DIR {inner[0].parent}?" if inner else ""
                 raise InputError(f"{where}: frame '{frame}' not found in {mask_dir}{hint}")
+            st = path.stat()
+            same = seen_file.get((st.st_dev, st.st_ino))
+            if same:
+                raise InputError(f"{where}: frame '{frame}' is the same file as '{same[1]}' on line "
+                                 f"{same[0]}; each frame is listed once")
         except InputError as e:
             if not skip_bad:
                 raise
             skipped.append({"example": f"line {i + 2}", "kind": "skipped", "detail": str(e)})
             continue
         seen_frame[frame], seen_z[zi] = i + 2, i + 2
+        seen_file[(st.st_dev, st.st_ino)] = (i + 2, frame)
         files.append(path)
         z.append(zi)
         depth.append(di)

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..benchmark import OFFICIAL_SPLITS, ROBOT_FRAMES, ROBOT_N_OBS, ROBOT_WINDOWS, protocol_windows
-from ..errors import DigestMismatchError, InputError
+from ..errors import DigestMismatchError, InputError, OutputExistsError
 from ..store.format import StoreAttrs
 from ..store.manifests import check_against_manifest, load_manifest, split_names
 from .builder import BadFiles, build_store
@@ -34,6 +34,7 @@ from .plan import Plan
 
 # (frames per mask chunk, frames per shard): robot one folder per chunk, normal/perturb one example.
 CHUNKING = {"robot": (30, 480), "driving": (32, 1024), "normal": (10, 2000), "perturb": (10, 2000)}
+MODIFIED = "-modified"  # the suffix of a split whose content differs from its manifest
 RELEASE = "official ODMS release (Griffin & Corso, ECCV 2020; griffbr/ODMS data/)"
 
 
@@ -168,6 +169,7 @@ def make_plan(split: str, folders: list[Folder], skipped: list[dict[str, str]]) 
         masks=masks, z=np.concatenate(z) if z else np.zeros(0), depth=np.concatenate(depth) if depth
         else np.zeros(0), frame_index=frame_index, d1=np.array(d1, np.float64), ids=ids,
         sources=sources, frames_per_chunk=fpc, frames_per_shard=fps, oddities=list(skipped),
+        id_room=len(MODIFIED),
     )
 
 
@@ -193,13 +195,16 @@ def import_release(
 
     Every folder of every requested split is scanned before anything is written. With
     `skip_bad`, bad folders are left out and recorded as oddities of kind "skipped"; such a store
-    (or, with `verify=False`, any store differing from its manifest) is named `<split>-modified`.
+    (or, with `verify=False`, any store differing from its manifest) is named `<split>-modified`,
+    and so are its ids (`<split>-modified/...`).
     Otherwise a store that differs from its manifest raises DigestMismatchError and is not
     written. `progress(split, frames_done, frames_total)` follows the decoding.
     """
     data_dir, out_dir = Path(data_dir), Path(out_dir)
     if not data_dir.is_dir():
         raise InputError(f"{data_dir}: no such folder (give the release's data/ folder)")
+    if out_dir.exists() and not out_dir.is_dir():
+        raise OutputExistsError(f"{out_dir}: is a file; give a folder for the stores")
     names = list(splits or OFFICIAL_SPLITS)
     unknown = [n for n in names if n not in OFFICIAL_SPLITS]
     if unknown:
@@ -253,5 +258,5 @@ def _verify(attrs: StoreAttrs, name: str, path: Path, strict: bool) -> None:
     except DigestMismatchError as e:
         if strict:
             raise DigestMismatchError(f"{e}; nothing was written") from None
-        attrs.split = f"{name}-modified"
+        attrs.split = f"{name}{MODIFIED}"
         attrs.source = f"{attrs.source}; modified, differs from splits/{name}.json"

@@ -20,10 +20,11 @@ from ..errors import InputError
 from ..evaluation.predictions import write_predictions
 from ..loaders.targets import depth
 from ..loaders.torch_loader import StoreDataset
+from ..outputs import check_new_file
 from ..store.reader import open_store
 from . import odn
 from .odn import ODN
-from .run_folder import BEST, LAST, RunFolder, TrainConfig, replace_atomically
+from .run_folder import BEST, LAST, RunFolder, TrainConfig
 from .variants import Variant, variant
 
 EVAL_BATCH = 256  # examples a forward pass in evaluation
@@ -110,14 +111,12 @@ def predict(
 ) -> tuple[int, TrainConfig, int]:
     """Write the predictions file (schemas/PREDICTIONS.md) of the run's `which` checkpoint for every
     example of `stores` ({split: path}); returns (rows, the run's config, the checkpoint's iteration)."""
-    output = Path(output)
-    if output.exists() and not overwrite:
-        raise InputError(f"{output}: exists; give another -o or --overwrite to replace it")
+    check_new_file(output, overwrite, "-o", (".csv",))  # before the work, and again when written
     dev = pick_device(device)
     model, config, iteration = load_trained(folder, which, dev)
     rows: list[tuple[str, str, float]] = []
     for split in sorted(stores, key=split_order):
         got, ids, d1 = predict_store(model, config, str(stores[split]), dev, workers, progress)
         rows += zip([got] * len(ids), ids, d1.tolist(), strict=True)
-    replace_atomically(output, lambda p: write_predictions(p, rows))
+    write_predictions(output, rows, overwrite=overwrite)
     return len(rows), config, iteration

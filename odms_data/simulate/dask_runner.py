@@ -13,8 +13,9 @@ Only this module imports Dask, and only `generate` with a scheduler imports this
 
 from __future__ import annotations
 
+import itertools
 import os
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Generator, Iterable
 from typing import Any
 
 from .._version import __version__
@@ -74,11 +75,15 @@ def check_workers(client, address: str, path: str) -> None:
 
 
 def run_tasks(
-    tasks: list[ShardTask], address: str, progress: Callable[[int], None] | None = None
-) -> Iterator[ShardResult]:
+    tasks: Iterable[ShardTask], address: str, progress: Callable[[int], None] | None = None
+) -> Generator[ShardResult, None, None]:
     """Results of `tasks` run on the cluster at `address`, in task order."""
+    first = next(iter(tasks := iter(tasks)), None)
+    if first is None:
+        return
+    tasks = itertools.chain([first], tasks)
     with connect(address) as client:
-        check_workers(client, address, tasks[0].path)
+        check_workers(client, address, first.path)
 
         def ahead() -> int:  # two tasks per worker thread, recounted as the cluster scales
             return max(4, 2 * sum(client.nthreads().values()))

@@ -9,8 +9,9 @@ shard size.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Generator, Iterable, Iterator
 from concurrent.futures import Future
+from contextlib import closing
 
 import numpy as np
 
@@ -18,11 +19,13 @@ from ..errors import InputError
 from ..parallel import cores, ordered_map, spawn_pool, workers_for
 from ..store.digest import StoreDigest
 from ..store.format import StoreAttrs
+from ..store.masks import packed_width
 from ..store.writer import Layout, StoreWriter
-from .params import DEFAULT_EXAMPLES_PER_SHARD, GENERATOR_VERSION, GeneratorParams
+from .params import DEFAULT_EXAMPLES_PER_SHARD, GENERATOR_VERSION, MAX_FRAMES, GeneratorParams
 from .shards import SOURCE, ShardResult, ShardTask, example_ids, run_shard
 
 Progress = Callable[[int], None]
+SHARD_BYTES = 2**28  # the most packed mask bytes one shard task holds
 EXAMPLE_S, MEGAPIXEL_S = 1e-4, 2.5e-4  # generation's CPU-seconds per example and per megapixel of frames
 
 
@@ -32,7 +35,9 @@ def work_seconds(count: int, params: GeneratorParams) -> float:
     return count * (EXAMPLE_S + params.n_obs * H * W / 1e6 * MEGAPIXEL_S)
 
 
-def _run_tasks(tasks: list[ShardTask], workers: int, progress: Progress | None) -> Iterator[ShardResult]:
+def _run_tasks(
+    tasks: Iterable[ShardTask], workers: int, progress: Progress | None
+) -> Generator[ShardResult, None, None]:
     """Results in task order, each counted by `progress` as it comes."""
     for r in _run_local(tasks, workers):
         if progress:
@@ -40,7 +45,7 @@ def _run_tasks(tasks: list[ShardTask], workers: int, progress: Progress | None) 
         yield r
 
 
-def _run_local(tasks: list[ShardTask], workers: int) -> Iterator[ShardResult]:
+def _run_local(tasks: Iterable[ShardTask], workers: int) -> Iterator[ShardResult]:
     """Results in task order; at most 2 * workers tasks in flight."""
     if workers <= 1:
         yield from map(run_shard, tasks)
@@ -79,7 +84,11 @@ def generate(
     if examples_per_shard < 1:
         raise InputError(f"examples per shard must be at least 1, got {examples_per_shard}")
     n, (H, W) = params.n_obs, params.image_size
-    eps = min(examples_per_shard, count)
+    if count * n > MAX_FRAMES:
+        raise InputError(f"{count} examples of {n} frames make {count * n:.3g} frames; a store holds at "
+                         f"most {MAX_FRAMES:.3g} (2^40)")
+    # a shard's masks are held in memory by its task: at most SHARD_BYTES, whatever was asked
+    eps = max(1, min(examples_per_shard, count, SHARD_BYTES // (n * H * packed_width(W))))
     ids_width = len(example_ids(split, count, count - 1, count)[0].encode())
     layout = Layout(
         height=H, width=W, n_frames=count * n, n_examples=count, max_obs=n,
@@ -89,30 +98,31 @@ def generate(
     with StoreWriter(path, fmt, overwrite=overwrite) as w:
         w.create(layout)
         target = os.path.abspath(w.partial) if w.local else w.partial  # workers may have another cwd
-        tasks = [
+        tasks = (  # made as they are run: a billion examples start at once
             ShardTask(target, w.format, params, seed, split, count, s, min(s + eps, count))
             for s in range(0, count, eps)
-        ]
+        )
         if scheduler is None:
             if workers is None:
                 workers = workers_for(work_seconds(count, params), cores())
-            results = _run_tasks(tasks, min(workers, len(tasks)), progress)
+            results = _run_tasks(tasks, min(workers, -(-count // eps)), progress)  # no more than tasks
         else:
             from .dask_runner import run_tasks
 
             results = run_tasks(tasks, scheduler, progress)
         digest = StoreDigest(H, W, count)
-        for r in results:
-            f0 = r.start * n
-            w.write_frames(f0, r.z, r.z, r.stats)
-            frame_index = np.arange(f0, r.stop * n).reshape(-1, n)
-            w.write_examples(
-                r.start, frame_index, r.z[::n].copy(),
-                example_ids(split, count, r.start, r.stop), [SOURCE] * (r.stop - r.start),
-            )
-            for e, chunk in enumerate(r.deflated_chunks):
-                w.write_mask_chunk(f0 + e * n, chunk)
-            digest.update(r.example_digests)
+        with closing(results):  # on an error, the workers stop writing before the store is removed
+            for r in results:
+                f0 = r.start * n
+                w.write_frames(f0, r.z, r.z, r.stats)
+                frame_index = np.arange(f0, r.stop * n).reshape(-1, n)
+                w.write_examples(
+                    r.start, frame_index, r.z[::n].copy(),
+                    example_ids(split, count, r.start, r.stop), [SOURCE] * (r.stop - r.start),
+                )
+                for e, chunk in enumerate(r.deflated_chunks):
+                    w.write_mask_chunk(f0 + e * n, chunk)
+                digest.update(r.example_digests)
         attrs = StoreAttrs(
             split=split, domain="generated", image_size=(H, W),
             counts={"examples": count, "frames": count * n, "labelled": count},

@@ -3,6 +3,7 @@ can offer them without loading the renderer."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, fields, replace
 from typing import Any
 
@@ -13,6 +14,53 @@ DEFAULT_EXAMPLES_PER_SHARD = 128  # examples per shard task of a generated store
 # silhouettes without holes, every pixel the contour passes through (raster.py); the released
 # generator's point spacing rule. 1: cv2.fillPoly of the contour, even-odd; Euclidean spacing.
 GENERATOR_VERSION = 2
+MAX_SIDE = 8192  # px, the largest image height or width
+MAX_FRAMES = 2**40  # frames in one store
+MAX_CURVE_POINTS = 100_000  # an outline's samples: its drawing takes over 2 KiB of memory each
+MAX_EXAMPLE_BYTES = 2**30  # one example's bit-packed masks, held in memory while it is drawn
+
+# name -> (kind, low, high): the allowed range of each parameter (of each item for tuples); a high
+# of None is relative to the image (see _range_problem). The ranges keep a frame's drawing bounded:
+# the object's box is at most 4 image sides or 1000 px (and MAX_SIDE), the Bezier handles at most
+# 2 chords, the perturbation at most 100 px deep, a contour at most MAX_CURVE_POINTS points, one
+# example's masks at most MAX_EXAMPLE_BYTES.
+LIMITS: dict[str, tuple[type, float, float | None]] = {
+    "n_obs": (int, 2, 1000),
+    "d_min": (float, 0.0, 1e6), "d_max": (float, 0.0, 1e6), "dz_min": (float, 0.0, 1e6),
+    "image_size": (int, 1, MAX_SIDE),
+    "sizes": (int, 1, None),
+    "n_points": (int, 3, 1000),
+    "bezier_radius": (float, 0.0, 2.0),
+    "bezier_rotation": (float, -1e6, 1e6),
+    "perturb_std": (float, 0.0, 100.0),
+    "min_spacing": (float, 0.0, 1.0),
+    "spacing_tries": (int, 1, 10_000),
+    "curve_samples": (int, 2, 10_000),
+}
+POSITIVE = ("d_min", "d_max", "dz_min")  # strictly above their low
+LISTS = ("image_size", "sizes", "n_points", "bezier_radius", "bezier_rotation")
+
+
+def _range_problem(name: str, value: Any, params: GeneratorParams) -> str | None:
+    """What is wrong with `value` of parameter `name`, with the allowed range; None when nothing."""
+    kind, low, high = LIMITS[name]
+    if high is None:  # sizes: up to 4 sides of the image, or 1000 px (the paper's sizes on any image)
+        valid = _range_problem("image_size", params.image_size, params) is None
+        high = min(max(4 * max(params.image_size), 1000), MAX_SIDE) if valid else MAX_SIDE
+    what = "whole number" if kind is int else "number"
+    shown = list(value) if isinstance(value, tuple) else value
+    allowed = f"{what}s" if name in LISTS else f"a {what}"
+    allowed += f" {'>' if name in POSITIVE else '>='} {low:g} and <= {high:g}"
+    if name in LISTS:
+        if not isinstance(value, tuple) or not value or (name == "image_size" and len(value) != 2):
+            shape = "[height, width]" if name == "image_size" else "a non-empty list"
+            return f"{name} must be {shape} of {allowed}, got {shown!r}"
+    for v in value if name in LISTS else (value,):
+        right_kind = isinstance(v, int) if kind is int else isinstance(v, int | float)
+        if (isinstance(v, bool) or not right_kind or not math.isfinite(v) or v < low or v > high
+                or (v == low and name in POSITIVE)):
+            return f"{name} must be {allowed}, got {shown!r}"
+    return None
 
 
 @dataclass(frozen=True)
@@ -34,24 +82,20 @@ class GeneratorParams:
     curve_samples: int = 32  # points per Bezier segment
 
     def __post_init__(self) -> None:
-        problems = []
-        if self.n_obs < 2:
-            problems.append(f"n_obs must be at least 2, got {self.n_obs}")
-        if not 0 < self.d_min < self.d_max:
-            problems.append(f"need 0 < d_min < d_max, got d_min={self.d_min}, d_max={self.d_max}")
-        elif not 0 < self.dz_min <= self.d_max - self.d_min:
-            problems.append(f"need 0 < dz_min <= d_max - d_min, got dz_min={self.dz_min}")
-        if len(self.image_size) != 2 or min(self.image_size) < 1:
-            problems.append(f"image_size must be (height, width) >= 1, got {self.image_size}")
-        for name in ("sizes", "n_points", "bezier_radius", "bezier_rotation"):
-            if not getattr(self, name):
-                problems.append(f"{name} must not be empty")
-        if any(s <= 0 for s in self.sizes) or any(p < 3 for p in self.n_points):
-            problems.append("sizes must be positive and n_points at least 3")
-        if self.perturb_std < 0 or self.curve_samples < 2:
-            problems.append("perturb_std must be >= 0 and curve_samples >= 2")
-        if self.min_spacing < 0 or self.spacing_tries < 1:
-            problems.append("min_spacing must be >= 0 and spacing_tries >= 1")
+        problems = [p for name in LIMITS if (p := _range_problem(name, getattr(self, name), self))]
+        if not problems:
+            H, W = self.image_size
+            if self.n_obs * H * ((W + 7) // 8) > MAX_EXAMPLE_BYTES:
+                problems.append(f"n_obs={self.n_obs} masks of {H}x{W} take "
+                                f"{self.n_obs * H * ((W + 7) // 8) / 2**30:.1f} GiB per example, more than "
+                                f"the {MAX_EXAMPLE_BYTES / 2**30:g} GiB allowed; use fewer or smaller masks")
+            if self.curve_samples * max(self.n_points) > MAX_CURVE_POINTS:
+                problems.append(f"curve_samples x the largest n_points must be <= {MAX_CURVE_POINTS}, got "
+                                f"{self.curve_samples} x {max(self.n_points)}")
+            if not self.d_min < self.d_max:
+                problems.append(f"need d_min < d_max, got d_min={self.d_min}, d_max={self.d_max}")
+            elif not self.dz_min <= self.d_max - self.d_min:
+                problems.append(f"need dz_min <= d_max - d_min, got dz_min={self.dz_min}")
         if problems:
             raise InputError("generator parameters: " + "; ".join(problems))
 

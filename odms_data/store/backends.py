@@ -6,6 +6,7 @@ in Zarr, a JSON string in HDF5 (HDF5 attributes cannot nest).
 
 from __future__ import annotations
 
+import io
 import json
 from pathlib import Path
 from typing import Any, Literal
@@ -64,8 +65,30 @@ class Backend:
     ) -> Any:
         raise NotImplementedError
 
+    def check(self) -> None:
+        """Raise the error of a write that failed since the store was opened (see _FailSafeFile)."""
+
     def close(self) -> None:
         pass
+
+
+SETTLE_TIMEOUT_S = 60
+
+
+def settle_zarr_io() -> None:
+    """Wait for zarr's writes still in flight on its I/O thread. When one write of a call fails (a
+    full disk) or the caller is interrupted, the call raises at once while its other writes go on,
+    and would recreate files in a store being removed."""
+    import asyncio
+
+    from zarr.core.sync import sync
+
+    async def others() -> None:
+        pending = [t for t in asyncio.all_tasks() if t is not asyncio.current_task()]
+        if pending:
+            await asyncio.wait(pending, timeout=SETTLE_TIMEOUT_S)
+
+    sync(others())
 
 
 class ZarrBackend(Backend):
@@ -79,6 +102,10 @@ class ZarrBackend(Backend):
             self.group = zarr.open_group(
                 store=str(path), mode=mode, zarr_format=3, storage_options=storage_options(path)
             )
+        except OSError:
+            if mode == "w":
+                raise  # a full disk, say: the writer names the store
+            raise StoreError(f"{path}: not a readable Zarr v3 store (cannot be read)") from None
         except Exception as e:  # zarr raises several types for "not a group"
             raise StoreError(f"{path}: not a readable Zarr v3 store ({type(e).__name__}: {e})") from e
 
@@ -103,6 +130,9 @@ class ZarrBackend(Backend):
     def write_attrs(self, attrs: dict[str, Any]) -> None:
         self.group.attrs.update({"odms": attrs})
 
+    def close(self) -> None:
+        settle_zarr_io()
+
     def create_array(self, name, shape, dtype, chunks, shards=None):
         from zarr.codecs import ZstdCodec
 
@@ -113,6 +143,35 @@ class ZarrBackend(Backend):
         )
 
 
+class _FailSafeFile(io.FileIO):
+    """The file under an HDF5 store being written (h5py's fileobj driver). A write that fails is
+    not reported to libhdf5: the error is kept in `failed` and that write and every later one are
+    dropped, and the writer raises the error after the call that met it (`Hdf5Backend.check`).
+
+    libhdf5 cannot recover from a failed write: a file whose flush or close failed leaves a file
+    id that is freed twice when it is closed again or at exit, a segmentation fault (h5py issues
+    914 and 2160). Seeing only successful writes, it closes cleanly; the store is then removed.
+    """
+
+    failed: OSError | None = None
+
+    def write(self, b) -> int:
+        if self.failed is None:
+            try:
+                return super().write(b) or 0
+            except OSError as e:
+                self.failed = e
+        return len(memoryview(b))
+
+    def truncate(self, size: int | None = None) -> int:
+        if self.failed is None:
+            try:
+                return super().truncate(size)
+            except OSError as e:
+                self.failed = e
+        return self.tell() if size is None else size
+
+
 class Hdf5Backend(Backend):
     kind = "hdf5"
 
@@ -120,8 +179,17 @@ class Hdf5Backend(Backend):
         import h5py
 
         self.path = path
+        self._raw: _FailSafeFile | None = None
+        if mode == "w":
+            self._raw = _FailSafeFile(path, "w+b")
+            try:
+                self.file = h5py.File(self._raw, "w")
+            except BaseException:
+                self._raw.close()
+                raise
+            return
         try:
-            self.file = h5py.File(path, {"r": "r", "r+": "r+", "w": "w"}[mode])
+            self.file = h5py.File(path, mode)
         except OSError as e:
             raise StoreError(f"{path}: not a readable HDF5 file ({e})") from e
 
@@ -167,14 +235,31 @@ class Hdf5Backend(Backend):
             compression_opts=GZIP_LEVEL, fillvalue=0,
         )
 
+    def check(self) -> None:
+        if self._raw is not None and self._raw.failed is not None:
+            raise self._raw.failed
+
     def close(self) -> None:
-        self.file.close()
+        try:
+            self.file.close()
+        finally:
+            if self._raw is not None:
+                self._raw.close()
+        self.check()
 
 
 def open_backend(path: str, mode: Mode = "r", fmt: str | None = None) -> Backend:
     """Open the store at `path`; `fmt` defaults to what `detect_format` finds."""
     fmt = fmt or detect_format(path)
-    if mode == "r" and not is_url(path) and not Path(path).exists():
-        raise StoreError(f"{path}: no such store")
+    local = Path(path) if not is_url(path) else None
+    if mode != "w" and local is not None:
+        if not local.exists():
+            raise StoreError(f"{path}: no such store")
+        if local.is_file() and fmt == "zarr":  # a file without the HDF5 signature
+            what = ("not an HDF5 file (it lacks the HDF5 signature)" if local.suffix.lower() in HDF5_SUFFIXES
+                    else "not a store (an odms-data store is a Zarr folder or an HDF5 file)")
+            raise StoreError(f"{path}: {what}")
+        if local.is_dir() and not (local / "zarr.json").exists():
+            raise StoreError(f"{path}: not a Zarr v3 store (the folder has no zarr.json)")
     return (ZarrBackend if fmt == "zarr" else Hdf5Backend)(str(path), mode)
 

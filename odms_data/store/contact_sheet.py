@@ -3,10 +3,14 @@
 from __future__ import annotations
 
 import math
+import os
+from pathlib import Path
 
 import numpy as np
 from PIL import Image, ImageDraw
 
+from ..errors import InputError
+from ..outputs import atomic_file
 from .reader import Example
 
 THUMB_WIDTH = 240
@@ -35,3 +39,25 @@ def contact_sheet(example: Example, columns: int = COLUMNS) -> Image.Image:
         depth = "depth ?" if math.isnan(example.depth[i]) else f"depth {example.depth[i]:.3f} m"
         draw.text((x + 2, y + th + 4), f"#{i + 1}  z {example.z[i]:.4f} m  {depth}", fill=255)
     return sheet
+
+
+def image_format(path: str | os.PathLike, option: str = "-o") -> str:
+    """The format Pillow writes for `path`'s suffix; InputError when it has none Pillow writes."""
+    Image.init()
+    writable = {ext: fmt for ext, fmt in Image.registered_extensions().items() if fmt in Image.SAVE}
+    suffix = Path(path).suffix.lower()
+    if suffix not in writable:
+        what = f"suffix {suffix} is not an image format Pillow writes" if suffix else "has no suffix"
+        raise InputError(f"{option} {path}: {what}; name it e.g. sheet.png")
+    return writable[suffix]
+
+
+def save_image(image: Image.Image, path: str | os.PathLike, *, overwrite: bool = False,
+               option: str = "-o") -> None:
+    """Write `image` to `path` in the format of its suffix, as every output is (outputs.atomic_file)."""
+    fmt = image_format(path, option)
+    with atomic_file(path, overwrite=overwrite, option=option) as partial:
+        try:
+            image.save(partial, format=fmt)
+        except (ValueError, KeyError) as e:
+            raise InputError(f"{option} {path}: Pillow cannot write this image as {fmt} ({e})") from None

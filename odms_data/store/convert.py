@@ -6,8 +6,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..errors import StoreError
-from .digest import BLOCK_FRAMES, recompute_digest
+from .digest import BLOCK_FRAMES, check_recorded_digest
 from .masks import FrameStats
 from .reader import open_store
 from .writer import Layout, StoreWriter
@@ -41,11 +40,6 @@ def convert(
                 if progress:
                     progress(len(block))
 
-            digest, _ = recompute_digest(s, copy)
-            if digest != s.attrs.digest:
-                raise StoreError(
-                    f"{src}: content digest {digest} differs from the recorded {s.attrs.digest}; "
-                    "run `odms-data validate` on it"
-                )
+            digest = check_recorded_digest(s, src, copy)
             w.commit(s.attrs)
         return digest

@@ -13,6 +13,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..errors import StoreError
+from .format import decode_strings
+
 DIGEST_PREFIX = b"odms-store-content/1"
 BLOCK_FRAMES = 1024  # frames read at a time when streaming a store
 CANONICAL_NAN = bytes.fromhex("000000000000f87f")  # how every NaN is hashed: 0x7ff8000000000000
@@ -91,20 +94,38 @@ class StoreDigest:
 def recompute_digest(
     store: Store, visit: Callable[[int, np.ndarray], None] | None = None
 ) -> tuple[str, np.ndarray]:
-    """Stream all masks once; returns the content digest and the (F, 32) frame digests.
+    """Stream all masks once; returns the content digest and the (F, 32) frame digests of the
+    content as stored (unchecked: `validate` digests broken stores too; the frame index must hold
+    frame rows and the strings must be UTF-8).
 
     `visit(start, packed_block)` sees every block of packed masks as it is read.
     """
+    z, depth, d1, fi = (store.raw(name) for name in ("z", "depth", "d1", "frame_index"))
+    ids, sources = decode_strings(store.raw("example_id")), decode_strings(store.raw("source"))
     fd = np.empty((store.n_frames, 32), np.uint8)
     for start in range(0, store.n_frames, BLOCK_FRAMES):
         block = store.read_packed(start, min(start + BLOCK_FRAMES, store.n_frames))
         stop = start + len(block)
-        fd[start:stop] = frame_digests(block, store.z[start:stop], store.depth[start:stop])
+        fd[start:stop] = frame_digests(block, z[start:stop], depth[start:stop])
         if visit:
             visit(start, block)
     digest = StoreDigest(store.height, store.width, store.n_examples)
     digest.update(
-        example_digest(store.example_ids[i], store.sources[i], store.d1[i], fd[store.frames_of(i)])
-        for i in range(store.n_examples)
+        example_digest(ids[i], sources[i], d1[i], fd[row[row >= 0]]) for i, row in enumerate(fi)
     )
     return digest.hexdigest(), fd
+
+
+def check_recorded_digest(
+    store: Store, path: str, visit: Callable[[int, np.ndarray], None] | None = None
+) -> str:
+    """`recompute_digest` that refuses a store (at `path`, for the message) whose content differs
+    from the digest it records, or that breaks the format's read rules; returns the digest."""
+    _ = store.frame_index, store.example_ids, store.sources  # read first: the format's rules checked
+    digest, _ = recompute_digest(store, visit)
+    if digest != store.attrs.digest:
+        raise StoreError(
+            f"{path}: content digest {digest} differs from the recorded {store.attrs.digest}; "
+            "run `odms-data validate` on it"
+        )
+    return digest

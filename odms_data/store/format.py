@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+from collections import Counter
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from functools import cache
 from typing import Any
@@ -125,3 +127,94 @@ def encode_strings(values: list[str]) -> np.ndarray:
 def decode_strings(matrix: np.ndarray) -> list[str]:
     """Inverse of `encode_strings`."""
     return [bytes(row).rstrip(b"\0").decode() for row in np.asarray(matrix, np.uint8)]
+
+
+# --- what the arrays may hold (schemas/FORMAT.md, "What a store may not hold") ---------------
+# Each function returns one line per broken rule, naming the first offenders; `name(i)` names
+# example row i (its id, where the ids are readable). The reader raises the first line when it
+# reads the array; `validate` reports them all.
+
+Name = Callable[[int], str]
+
+
+def _first(values: Any, k: int = 5) -> str:
+    values = [int(v) for v in values]
+    return ", ".join(map(str, values[:k])) + (", ..." if len(values) > k else "")
+
+
+def frame_index_problems(fi: np.ndarray, n_frames: int, name: Name) -> list[str]:
+    """Rows of frames 0..F-1, -1 only as padding at the end, at least 2 frames per example."""
+    if fi.size and (fi.min() < -1 or fi.max() >= n_frames):
+        rows = np.nonzero(((fi < -1) | (fi >= n_frames)).any(axis=1))[0]
+        row = fi[rows[0]]
+        value = int(row.max()) if row.max() >= n_frames else int(row.min())
+        return [f"frame_index of example {name(int(rows[0]))} holds {value}, outside the frames "
+                f"0..{n_frames - 1} (and -1 for padding)"]
+    problems = []
+    padded = fi < 0
+    inside = np.nonzero((padded[:, :-1] & ~padded[:, 1:]).any(axis=1))[0]
+    if len(inside):
+        problems.append(f"example {name(int(inside[0]))}: -1 padding is followed by a frame index")
+    n_obs = (~padded).sum(axis=1)
+    short = np.nonzero(n_obs < 2)[0]
+    if len(short):
+        problems.append(f"example {name(int(short[0]))} has {int(n_obs[short[0]])} frame(s), at least 2 "
+                        f"are needed ({len(short)} such example(s))")
+    return problems
+
+
+def z_problems(z: np.ndarray) -> list[str]:
+    """Camera positions are finite."""
+    bad = np.nonzero(~np.isfinite(z))[0]
+    return [f"z is not finite at frame(s) {_first(bad)}"] if len(bad) else []
+
+
+def depth_problems(depth: np.ndarray) -> list[str]:
+    """Depths are positive and finite where known (NaN where unknown)."""
+    with np.errstate(invalid="ignore"):
+        bad = np.nonzero(~np.isnan(depth) & ~(np.isfinite(depth) & (depth > 0)))[0]
+    return [f"depth is not a positive distance (nor NaN) at frame(s) {_first(bad)}"] if len(bad) else []
+
+
+def d1_problems(d1: np.ndarray, labelled: int, name: Name) -> list[str]:
+    """Labels are positive and finite where known (NaN for unlabelled examples), and `labelled`
+    (counts.labelled) of them are known."""
+    problems = []
+    with np.errstate(invalid="ignore"):
+        bad = np.nonzero(~np.isnan(d1) & ~(np.isfinite(d1) & (d1 > 0)))[0]
+    if len(bad):
+        problems.append(f"d1 of example {name(int(bad[0]))} is {d1[bad[0]]}, not a positive depth "
+                        f"({len(bad)} such example(s))")
+    known = int((~np.isnan(d1)).sum())
+    if known != labelled:
+        problems.append(f"counts.labelled is {labelled}, but {known} examples have d1")
+    return problems
+
+
+def id_problems(ids: list[str], split: str) -> list[str]:
+    """Ids are non-empty, unique and start with '<split>/'."""
+    problems = []
+    if any(not x for x in ids):
+        problems.append(f"example row {ids.index('')} has an empty id")
+    foreign = [x for x in ids if x and not x.startswith(split + "/")]
+    if foreign:
+        problems.append(f"example id {foreign[0]!r} does not start with its split '{split}/' "
+                        f"({len(foreign)} such id(s))")
+    if len(set(ids)) != len(ids):
+        counts = Counter(ids)
+        dup = next(x for x in ids if counts[x] > 1)
+        problems.append(f"example id {dup!r} appears {counts[dup]} times")
+    return problems
+
+
+def stats_problems(
+    area: np.ndarray, largest: np.ndarray, bbox: np.ndarray, height: int, width: int
+) -> list[str]:
+    """The statistics lie in the image: 0 <= largest_area <= area <= H*W, boxes inside the image."""
+    bad = np.nonzero((largest < 0) | (largest > area) | (area > height * width))[0]
+    problems = [f"area/largest_area are impossible at frame(s) {_first(bad)}"] if len(bad) else []
+    x0, y0, x1, y1 = bbox.T if bbox.size else (np.zeros(0),) * 4
+    out = np.nonzero((x0 < 0) | (y0 < 0) | (x1 > width) | (y1 > height) | (x0 > x1) | (y0 > y1))[0]
+    if len(out):
+        problems.append(f"bbox lies outside the image at frame(s) {_first(out)}")
+    return problems

@@ -9,20 +9,24 @@ One row per example: `example_id`, `split`, `source`, `d1` (NaN when unlabelled)
 the store packs them (store/masks.py: rows of ceil(width / 8) bytes, most significant bit first).
 `datasets.load_dataset(DIR)` reads it, one split per store (named with `_` for `-`, as the Hub
 allows only letters, digits and `_` in split names). The folder is written as DIR.partial and
-renamed into place when complete. Needs pyarrow (the `hub` extra).
+renamed into place when complete, as every output is (outputs.py); a store whose content differs
+from its recorded digest is refused, since the card publishes the digests. Needs pyarrow (the
+`hub` extra).
 """
 
 from __future__ import annotations
 
 import hashlib
-import shutil
+import json
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError, StoreExistsError
+from ..errors import InputError
+from ..outputs import atomic_folder
+from .digest import check_recorded_digest
 from .hub_metadata import croissant, dataset_card, hub_split, licence_of
 from .reader import Store, open_store
 
@@ -100,6 +104,22 @@ def sha256(path: Path) -> str:
     return h.hexdigest()
 
 
+def _not_an_export(path: Path) -> str | None:
+    """What makes `path` something else than an earlier export or an empty folder (None if not):
+    an export is a folder whose croissant.json names odms-data as its creator."""
+    if not path.is_dir():
+        return "is a file, not an earlier export"
+    if not any(path.iterdir()):
+        return None
+    try:
+        creator = json.loads((path / "croissant.json").read_text(encoding="utf-8"))["creator"]["name"]
+    except (OSError, ValueError, KeyError, TypeError):
+        creator = None
+    if not (isinstance(creator, str) and creator.startswith("odms-data ")):
+        return "is not an earlier export (no croissant.json written by odms-data)"
+    return None
+
+
 def export_hub(
     stores: Sequence[str],
     out_dir: str,
@@ -119,13 +139,6 @@ def export_hub(
     if examples_per_file < 1:
         raise InputError(f"examples per file must be at least 1, got {examples_per_file}")
     target = Path(out_dir)
-    if target.exists() or target.is_symlink():
-        if not overwrite:
-            raise StoreExistsError(f"{out_dir}: already exists; pass --overwrite to replace it")
-        if not (target.is_dir() and not target.is_symlink()
-                and (not any(target.iterdir()) or (target / "croissant.json").is_file())):
-            raise StoreExistsError(f"{out_dir}: is not an earlier export (no croissant.json); --overwrite "
-                                   "replaces only an export or an empty folder, so choose another output")
     opened = [open_store(p) for p in stores]
     try:
         splits = [s.attrs.split for s in opened]
@@ -138,22 +151,15 @@ def export_hub(
             raise InputError(f"splits {' and '.join(s for s in splits if hub_split(s) == clash)} both become "
                              f"the Hub split {clash}; export them separately")
         licence = licence or licence_of([s.attrs for s in opened])
-        partial = target.with_name(target.name + ".partial")
-        shutil.rmtree(partial, ignore_errors=True)
-        partial.mkdir(parents=True)
-        try:
+        for path, s in zip(stores, opened, strict=True):  # the card publishes each store's digest
+            check_recorded_digest(s, path)
+        with atomic_folder(target, overwrite=overwrite, foreign=_not_an_export) as partial:
             exported = [_write_split(s, partial, examples_per_file, progress) for s in opened]
             title, attrs = name or target.name, [s.attrs for s in opened]
             (partial / "README.md").write_text(dataset_card(title, attrs, exported, licence))
             hashes = {f: sha256(partial / f) for e in exported for f in e.files}
             (partial / "croissant.json").write_text(croissant(title, attrs, exported, licence, hashes))
-        except BaseException:
-            shutil.rmtree(partial, ignore_errors=True)
-            raise
     finally:
         for s in opened:
             s.close()
-    if target.exists():
-        shutil.rmtree(target)
-    partial.rename(target)
     return exported

@@ -5,14 +5,29 @@ from __future__ import annotations
 import difflib
 from dataclasses import dataclass
 from functools import cached_property
+from typing import TypeVar
 
 import numpy as np
 
 from ..errors import InputError, StoreError
 from .backends import Backend, open_backend
-from .format import EXAMPLE_ARRAYS, FRAME_ARRAYS, StoreAttrs, decode_strings, layout_problems
+from .format import (
+    EXAMPLE_ARRAYS,
+    FRAME_ARRAYS,
+    StoreAttrs,
+    d1_problems,
+    decode_strings,
+    depth_problems,
+    frame_index_problems,
+    id_problems,
+    layout_problems,
+    stats_problems,
+    z_problems,
+)
 from .masks import packed_width, unpack
 from .shard_reader import ShardReader
+
+T = TypeVar("T")
 
 
 @dataclass
@@ -66,33 +81,61 @@ class Store:
                              f"not its declared {tuple(arr.shape)}")
         return data
 
+    def _checked(self, data: T, problems: list[str]) -> T:
+        """`data`, unless it breaks the format's rules (format.py): then the first one, raised."""
+        if problems:
+            raise StoreError(f"{self.path}: {problems[0]}; run `odms-data validate` on it")
+        return data
+
+    def _name(self, i: int) -> str:
+        """Example row i by its id, or by its row when the ids are themselves unreadable."""
+        try:
+            return repr(self.example_ids[i])
+        except StoreError:
+            return f"row {i}"
+
+    # Each array is checked against the format's rules when first read; `raw` reads it unchecked.
+    def raw(self, name: str) -> np.ndarray:
+        """Array `name` as stored, unchecked (for `validate`, which reports every problem)."""
+        return self._read(name)
+
     @cached_property
     def z(self) -> np.ndarray:
-        return self._read("z")
+        z = self._read("z")
+        return self._checked(z, z_problems(z))
 
     @cached_property
     def depth(self) -> np.ndarray:
-        return self._read("depth")
+        depth = self._read("depth")
+        return self._checked(depth, depth_problems(depth))
 
     @cached_property
+    def _stats(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        area, largest, bbox = self._read("area"), self._read("largest_area"), self._read("bbox")
+        self._checked(area, stats_problems(area, largest, bbox, self.height, self.width))
+        return area, largest, bbox
+
+    @property
     def area(self) -> np.ndarray:
-        return self._read("area")
+        return self._stats[0]
 
-    @cached_property
+    @property
     def largest_area(self) -> np.ndarray:
-        return self._read("largest_area")
+        return self._stats[1]
 
-    @cached_property
+    @property
     def bbox(self) -> np.ndarray:
-        return self._read("bbox")
+        return self._stats[2]
 
     @cached_property
     def frame_index(self) -> np.ndarray:
-        return self._read("frame_index")
+        fi = self._read("frame_index")
+        return self._checked(fi, frame_index_problems(fi, self.n_frames, self._name))
 
     @cached_property
     def d1(self) -> np.ndarray:
-        return self._read("d1")
+        d1 = self._read("d1")
+        return self._checked(d1, d1_problems(d1, self.attrs.counts["labelled"], self._name))
 
     @cached_property
     def n_obs(self) -> np.ndarray:
@@ -101,7 +144,8 @@ class Store:
 
     @cached_property
     def example_ids(self) -> list[str]:
-        return self._strings("example_id")
+        ids = self._strings("example_id")
+        return self._checked(ids, id_problems(ids, self.attrs.split))
 
     @cached_property
     def sources(self) -> list[str]:
@@ -162,9 +206,7 @@ class Store:
         i = self.index(key) if isinstance(key, str) else int(key)
         if not 0 <= i < self.n_examples:
             raise InputError(f"{self.path}: example row {i} is out of range 0..{self.n_examples - 1}")
-        frames = self.frames_of(i)
-        if len(frames) and (frames.min() < 0 or frames.max() >= self.n_frames):
-            raise StoreError(f"{self.path}: example row {i} refers to frames outside 0..{self.n_frames - 1}")
+        frames = self.frames_of(i)  # rows inside the store: frame_index is checked when read
         return Example(
             example_id=self.example_ids[i],
             source=self.sources[i],

@@ -2,16 +2,28 @@
 
 from __future__ import annotations
 
-from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import InputError, OdmsError
+from ..errors import InputError, OdmsError, StoreError
 from .backends import open_backend
 from .digest import recompute_digest
-from .format import EXAMPLE_ARRAYS, FRAME_ARRAYS, Z_ODDITY, attribute_problems, layout_problems
+from .format import (
+    EXAMPLE_ARRAYS,
+    FRAME_ARRAYS,
+    Z_ODDITY,
+    attribute_problems,
+    d1_problems,
+    decode_strings,
+    depth_problems,
+    frame_index_problems,
+    id_problems,
+    layout_problems,
+    stats_problems,
+    z_problems,
+)
 from .manifests import SplitManifest, load_manifest, split_names
 from .masks import mask_stats, packed_width, unpack
 from .reader import Store, open_store
@@ -69,50 +81,58 @@ def validate(path: str, progress: Callable[[int], None] | None = None) -> Report
 
 
 def _check_content(store: Store, report: Report, progress: Callable[[int], None] | None) -> None:
+    """Every rule of format.py over the arrays as stored, then the masks and the digest."""
     P = report.problems
-    F, E = store.n_frames, store.n_examples
-    fi = store.frame_index
-    if fi.size and (fi.min() < -1 or fi.max() >= F):
-        P.append(f"frame_index holds values outside -1..{F - 1}")
-        return
-    padded = fi < 0
-    if np.any(padded[:, :-1] & ~padded[:, 1:]):
-        row = int(np.nonzero((padded[:, :-1] & ~padded[:, 1:]).any(axis=1))[0][0])
-        P.append(f"example {store.example_ids[row]}: -1 padding is followed by a frame index")
-    n_obs = store.n_obs
-    for i in np.nonzero(n_obs < 2)[0][:5]:
-        P.append(f"example {store.example_ids[i]}: has {n_obs[i]} frame(s), at least 2 needed")
-    if not np.all(np.isfinite(store.z)):
-        P.append(f"z is not finite at frame(s) {_first(np.nonzero(~np.isfinite(store.z))[0])}")
-    excused = {o["example"] for o in store.attrs.oddities if o["kind"] == Z_ODDITY}
-    z = np.where(fi >= 0, store.z[np.maximum(fi, 0)], np.inf)
-    with np.errstate(invalid="ignore"):  # inf - inf in the padding of shorter examples
-        steps = np.diff(z, axis=1)
-    bad = np.nonzero(np.any(steps <= 0, axis=1) & (n_obs >= 2))[0]
-    for i in bad:
-        msg = f"example {store.example_ids[i]}: z is not strictly increasing"
-        (report.warnings if store.example_ids[i] in excused else P).append(
-            msg + (" (recorded oddity)" if store.example_ids[i] in excused else "")
-        )
-    d1 = store.d1
+    split = store.attrs.split
+    try:
+        ids = store.example_ids
+    except StoreError:
+        try:
+            ids = decode_strings(store.raw("example_id"))
+        except UnicodeDecodeError as e:
+            P.append(f"array 'example_id' holds invalid UTF-8 ({e})")
+            return
+        P += id_problems(ids, split)
+
+    def name(i: int) -> str:
+        return repr(ids[i])
+
+    try:
+        decode_strings(store.raw("source"))
+    except UnicodeDecodeError as e:
+        P.append(f"array 'source' holds invalid UTF-8 ({e})")
+    fi, z, depth, d1 = store.raw("frame_index"), store.raw("z"), store.raw("depth"), store.raw("d1")
+    index = frame_index_problems(fi, store.n_frames, name)
+    P += index + z_problems(z) + depth_problems(depth) + d1_problems(d1, store.attrs.counts["labelled"], name)
+    area, largest, bbox = store.raw("area"), store.raw("largest_area"), store.raw("bbox")
+    P += stats_problems(area, largest, bbox, store.height, store.width)
     labelled = ~np.isnan(d1)
-    wrong = labelled & ~(np.isfinite(d1) & (d1 > 0))
-    for i in np.nonzero(wrong)[0][:5]:
-        P.append(f"example {store.example_ids[i]}: d1 = {d1[i]} is not a positive depth")
-    if int(labelled.sum()) != store.attrs.counts["labelled"]:
-        P.append(f"counts.labelled is {store.attrs.counts['labelled']}, but {int(labelled.sum())} "
-                 "examples have d1")
-    ids = store.example_ids
-    if len(set(ids)) != E:
-        dup = sorted(x for x, c in Counter(ids).items() if c > 1)[:3]
-        P.append(f"example ids are not unique: {', '.join(dup)}")
-    if any(not x for x in ids):
-        P.append("an example id is empty")
+    if index or any("UTF-8" in p for p in P):
+        return  # the frames of the examples, or their strings, are unknown
+    first = depth[fi[:, 0]]
+    with np.errstate(invalid="ignore"):
+        differ = np.nonzero(labelled & ~np.isnan(first) & (d1 != first))[0]
+    if len(differ):
+        i = int(differ[0])
+        P.append(f"d1 of example {name(i)} is {d1[i]}, but the depth at its first frame is {first[i]} "
+                 f"({len(differ)} such example(s))")
+    n_obs = (fi >= 0).sum(axis=1)
+    excused = {o["example"] for o in store.attrs.oddities if o["kind"] == Z_ODDITY}
+    zz = np.where(fi >= 0, z[np.maximum(fi, 0)], np.inf)
+    with np.errstate(invalid="ignore"):  # inf - inf in the padding of shorter examples
+        steps = np.diff(zz, axis=1)
+    for row in np.nonzero(np.any(steps <= 0, axis=1) & (n_obs >= 2))[0]:
+        eid = ids[row]
+        if eid in excused:
+            report.warnings.append(f"example {eid}: z is not strictly increasing (recorded oddity)")
+        else:
+            P.append(f"example {eid}: z is not strictly increasing")
     _check_masks(store, report, progress)
 
 
 def _check_masks(store: Store, report: Report, progress: Callable[[int], None] | None) -> None:
     W, pad_bits = store.width, packed_width(store.width) * 8 - store.width
+    area, largest, bbox = store.raw("area"), store.raw("largest_area"), store.raw("bbox")
     pad_mask = np.uint8((1 << pad_bits) - 1) if pad_bits else None
     wrong_stats: list[int] = []
 
@@ -122,9 +142,8 @@ def _check_masks(store: Store, report: Report, progress: Callable[[int], None] |
         masks = unpack(block, W)
         for j, m in enumerate(masks):
             f = start + j
-            area, largest, bbox = mask_stats(m)
-            if (area != store.area[f] or largest != store.largest_area[f]
-                    or tuple(store.bbox[f]) != bbox):
+            a, la, box = mask_stats(m)
+            if a != area[f] or la != largest[f] or tuple(bbox[f]) != box:
                 wrong_stats.append(f)
         if progress:
             progress(len(block))

@@ -1,24 +1,28 @@
 """Writing a store atomically: into `<path>.partial` under a lock, moved into place at commit.
 
 A store is complete only when its `odms` attribute says `complete: true`, which `commit` writes
-last; for local paths the finished store is also renamed into place, so an interrupted write
-leaves at most a `.partial` sibling that the next run removes. Stores at URLs (no rename) rely on
-the attribute alone.
+last; for local paths the finished store is also flushed to disk and renamed into place, so an
+interrupted write leaves at most a `.partial` sibling that the next run removes. Stores at URLs
+(no rename) rely on the attribute alone. The rules are those of every output (outputs.py): an
+existing path is refused unless `overwrite`, and even then only an odms-data store or an empty
+folder is replaced; a failed write removes what it wrote and names the path.
 """
 
 from __future__ import annotations
 
-import fcntl
+import json
 import os
-import shutil
+from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError, StoreError, StoreExistsError, StoreLockedError
-from .backends import Backend, detect_format, is_url, open_backend
-from .format import EXAMPLE_ARRAYS, FRAME_ARRAYS, StoreAttrs, encode_strings
+from ..errors import InputError, StoreError, StoreExistsError
+from ..interrupts import uninterrupted
+from ..outputs import DISK_FULL, fsync_tree, move_into_place, output_lock, remove, write_error
+from .backends import HDF5_MAGIC, HDF5_SUFFIXES, Backend, detect_format, is_url, open_backend
+from .format import ATTRS_KEY, EXAMPLE_ARRAYS, FRAME_ARRAYS, StoreAttrs, encode_strings
 from .masks import FrameStats, packed_width
 from .shard_writer import ShardChunks
 
@@ -45,11 +49,66 @@ class Layout:
             raise InputError("frames_per_shard must be a multiple of frames_per_chunk")
 
 
-def _remove(path: Path) -> None:
-    if path.is_dir() and not path.is_symlink():
-        shutil.rmtree(path)
-    elif path.exists() or path.is_symlink():
-        path.unlink()
+def _not_a_store(path: Path) -> str | None:
+    """What is at `path` when it is neither an odms-data store nor an empty folder, else None."""
+    if path.is_symlink():
+        return "is a symbolic link"
+    if path.is_dir():
+        entries = sorted(p.name for p in path.iterdir())
+        if not entries:
+            return None
+        try:
+            meta = json.loads((path / "zarr.json").read_text())
+            ours = isinstance(meta.get("attributes", {}).get(ATTRS_KEY), dict)
+        except (OSError, ValueError, AttributeError):
+            ours = False
+        if not ours:
+            return (f"is a folder of {len(entries)} entr{'y' if len(entries) == 1 else 'ies'} that is not "
+                    f"an odms-data store (e.g. {entries[0]!r})")
+        others = [e for e in entries if e not in {"zarr.json", *FRAME_ARRAYS, *EXAMPLE_ARRAYS}]
+        if others:
+            return f"is an odms-data store that also holds {others[0]!r}"
+        return None
+    try:
+        with open(path, "rb") as f:
+            if f.read(8) == HDF5_MAGIC:
+                import h5py
+
+                with h5py.File(path, "r") as h:
+                    if ATTRS_KEY in h.attrs:
+                        return None
+    except OSError:
+        pass
+    return "is a file that is not an odms-data store"
+
+
+def check_new_store(path: str, overwrite: bool) -> None:
+    """Refuse to write a store at `path` when something is there, unless `overwrite` and it is an
+    odms-data store or an empty folder."""
+    target = Path(path)
+    if not (target.exists() or target.is_symlink()):
+        return
+    if not overwrite:
+        raise StoreExistsError(f"{path}: already exists; pass --overwrite to replace it")
+    what = _not_a_store(target)
+    if what:
+        raise StoreExistsError(f"{path}: {what}; --overwrite replaces only an odms-data store or an "
+                               "empty folder, so move it away or choose another output")
+
+
+def _check_suffix(path: str, fmt: str) -> None:
+    """Refuse a format that contradicts the output's name (a Zarr store called x.h5)."""
+    if is_url(path):
+        if fmt == "hdf5":
+            raise InputError(f"{path}: HDF5 stores are local files; write a Zarr store to a URL")
+        return
+    suffix = Path(path).suffix.lower()
+    if fmt == "zarr" and suffix in HDF5_SUFFIXES:
+        raise InputError(f"{path}: the name says HDF5 ({suffix}) but the format asked for is zarr; "
+                         "name it *.zarr or ask for --format hdf5")
+    if fmt == "hdf5" and suffix == ".zarr":
+        raise InputError(f"{path}: the name says Zarr (.zarr) but the format asked for is hdf5; "
+                         "name it *.h5 or ask for --format zarr")
 
 
 class StoreWriter:
@@ -57,6 +116,8 @@ class StoreWriter:
 
     def __init__(self, path: str, fmt: str | None = None, *, overwrite: bool = False) -> None:
         self.path = str(path)
+        if fmt is not None:
+            _check_suffix(self.path, fmt)
         self.format = fmt or detect_format(self.path)
         self.overwrite = overwrite
         self.local = not is_url(self.path)
@@ -64,84 +125,67 @@ class StoreWriter:
         self.backend: Backend | None = None
         self.arrays: dict = {}
         self.layout: Layout | None = None
-        self._lock_fd: int | None = None
+        self._held = ExitStack()
         self._committed = False
 
     # --- lifetime ----------------------------------------------------------------------
     def __enter__(self) -> StoreWriter:
-        if self.local:
-            self._acquire_lock()
-            target = Path(self.path)
-            if (target.exists() or target.is_symlink()) and not self.overwrite:
-                self._release_lock()
-                raise StoreExistsError(f"{self.path}: already exists; pass --overwrite to replace it")
-            _remove(Path(self.partial))
-        elif not self.overwrite and _url_exists(self.path):
-            raise StoreExistsError(f"{self.path}: already exists; pass --overwrite to replace it")
+        if not self.local:
+            _check_new_url_store(self.path, self.overwrite)
+            return self
+        with ExitStack() as held:
+            held.enter_context(output_lock(self.path, "store"))
+            check_new_store(self.path, self.overwrite)
+            try:
+                remove(self.partial)
+            except OSError as e:
+                raise write_error(self.path, e) from None
+            self._held = held.pop_all()
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:
-        try:
+        with self._held:
             if not self._committed:
                 if self.backend is not None:
-                    self.backend.close()
+                    try:
+                        self.backend.close()
+                    except Exception:
+                        if exc is None:
+                            raise
                 if self.local:
-                    _remove(Path(self.partial))
-        finally:
-            self._release_lock()
-
-    def _acquire_lock(self) -> None:
-        lock = self.path.rstrip("/") + ".lock"
-        Path(lock).parent.mkdir(parents=True, exist_ok=True)
-        fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            holder = os.read(fd, 64).decode(errors="replace").strip() or "unknown"
-            os.close(fd)
-            raise StoreLockedError(
-                f"{self.path}: another odms-data process (pid {holder}) is writing this store"
-            ) from None
-        os.ftruncate(fd, 0)
-        os.write(fd, str(os.getpid()).encode())
-        self._lock_fd, self._lock_path = fd, lock
-
-    def _release_lock(self) -> None:
-        if self._lock_fd is not None:
-            Path(self._lock_path).unlink(missing_ok=True)
-            os.close(self._lock_fd)
-            self._lock_fd = None
+                    remove(self.partial)
+        if isinstance(exc, OSError) and (exc.errno in DISK_FULL or _inside(exc.filename, self.partial)):
+            raise write_error(self.path, exc) from exc
 
     # --- content -----------------------------------------------------------------------
     def create(self, layout: Layout) -> None:
         """Create every array of the store with the given shapes and chunking."""
-        self.layout = L = layout
-        if self.local:
-            Path(self.partial).parent.mkdir(parents=True, exist_ok=True)
-        self.backend = b = open_backend(self.partial, "w", self.format)
-        F, E, fs, es = L.n_frames, L.n_examples, L.frames_per_shard, L.examples_per_chunk
-        pw = packed_width(L.width)
-        self.arrays = {
-            "masks": b.create_array(
-                "masks", (F, L.height, pw), FRAME_ARRAYS["masks"], (L.frames_per_chunk, L.height, pw),
-                shards=(fs, L.height, pw),
-            ),
-            "z": b.create_array("z", (F,), FRAME_ARRAYS["z"], (fs,)),
-            "depth": b.create_array("depth", (F,), FRAME_ARRAYS["depth"], (fs,)),
-            "area": b.create_array("area", (F,), FRAME_ARRAYS["area"], (fs,)),
-            "largest_area": b.create_array("largest_area", (F,), FRAME_ARRAYS["largest_area"], (fs,)),
-            "bbox": b.create_array("bbox", (F, 4), FRAME_ARRAYS["bbox"], (fs, 4)),
-            "frame_index": b.create_array(
-                "frame_index", (E, L.max_obs), EXAMPLE_ARRAYS["frame_index"], (es, L.max_obs)
-            ),
-            "d1": b.create_array("d1", (E,), EXAMPLE_ARRAYS["d1"], (es,)),
-            "example_id": b.create_array(
-                "example_id", (E, L.id_width), EXAMPLE_ARRAYS["example_id"], (es, L.id_width)
-            ),
-            "source": b.create_array(
-                "source", (E, L.source_width), EXAMPLE_ARRAYS["source"], (es, L.source_width)
-            ),
-        }
+        with uninterrupted():
+            self.layout = L = layout
+            self.backend = b = open_backend(self.partial, "w", self.format)
+            F, E, fs, es = L.n_frames, L.n_examples, L.frames_per_shard, L.examples_per_chunk
+            pw = packed_width(L.width)
+            self.arrays = {
+                "masks": b.create_array(
+                    "masks", (F, L.height, pw), FRAME_ARRAYS["masks"], (L.frames_per_chunk, L.height, pw),
+                    shards=(fs, L.height, pw),
+                ),
+                "z": b.create_array("z", (F,), FRAME_ARRAYS["z"], (fs,)),
+                "depth": b.create_array("depth", (F,), FRAME_ARRAYS["depth"], (fs,)),
+                "area": b.create_array("area", (F,), FRAME_ARRAYS["area"], (fs,)),
+                "largest_area": b.create_array("largest_area", (F,), FRAME_ARRAYS["largest_area"], (fs,)),
+                "bbox": b.create_array("bbox", (F, 4), FRAME_ARRAYS["bbox"], (fs, 4)),
+                "frame_index": b.create_array(
+                    "frame_index", (E, L.max_obs), EXAMPLE_ARRAYS["frame_index"], (es, L.max_obs)
+                ),
+                "d1": b.create_array("d1", (E,), EXAMPLE_ARRAYS["d1"], (es,)),
+                "example_id": b.create_array(
+                    "example_id", (E, L.id_width), EXAMPLE_ARRAYS["example_id"], (es, L.id_width)
+                ),
+                "source": b.create_array(
+                    "source", (E, L.source_width), EXAMPLE_ARRAYS["source"], (es, L.source_width)
+                ),
+            }
 
     def _created(self) -> tuple[Backend, Layout]:
         if self.backend is None or self.layout is None:
@@ -149,61 +193,90 @@ class StoreWriter:
         return self.backend, self.layout
 
     def write_masks(self, start: int, packed: np.ndarray) -> None:
-        self.arrays["masks"][start : start + len(packed)] = packed
+        with uninterrupted():
+            self.arrays["masks"][start : start + len(packed)] = packed
+            self._created()[0].check()
 
     def write_mask_chunk(self, start: int, deflated: bytes) -> None:
         """HDF5 only: store one already deflate-compressed mask chunk starting at frame `start`."""
-        self.arrays["masks"].id.write_direct_chunk((start, 0, 0), deflated)
+        with uninterrupted():
+            self.arrays["masks"].id.write_direct_chunk((start, 0, 0), deflated)
+            self._created()[0].check()
 
     def write_frames(
         self, start: int, z: np.ndarray, depth: np.ndarray, stats: FrameStats
     ) -> None:
-        stop = start + len(z)
-        a = self.arrays
-        a["z"][start:stop] = z
-        a["depth"][start:stop] = depth
-        a["area"][start:stop] = stats.area
-        a["largest_area"][start:stop] = stats.largest_area
-        a["bbox"][start:stop] = stats.bbox
+        with uninterrupted():
+            stop = start + len(z)
+            a = self.arrays
+            a["z"][start:stop] = z
+            a["depth"][start:stop] = depth
+            a["area"][start:stop] = stats.area
+            a["largest_area"][start:stop] = stats.largest_area
+            a["bbox"][start:stop] = stats.bbox
+            self._created()[0].check()
 
     def write_examples(
         self, start: int, frame_index: np.ndarray, d1: np.ndarray, ids: list[str], sources: list[str]
     ) -> None:
-        stop = start + len(d1)
-        _, L = self._created()
-        fi = np.full((len(d1), L.max_obs), -1, np.int64)
-        fi[:, : frame_index.shape[1]] = frame_index
-        a = self.arrays
-        a["frame_index"][start:stop] = fi
-        a["d1"][start:stop] = d1
-        a["example_id"][start:stop] = _fit(encode_strings(ids), L.id_width, "example id")
-        a["source"][start:stop] = _fit(encode_strings(sources), L.source_width, "source")
+        with uninterrupted():
+            stop = start + len(d1)
+            _, L = self._created()
+            fi = np.full((len(d1), L.max_obs), -1, np.int64)
+            fi[:, : frame_index.shape[1]] = frame_index
+            a = self.arrays
+            a["frame_index"][start:stop] = fi
+            a["d1"][start:stop] = d1
+            a["example_id"][start:stop] = _fit(encode_strings(ids), L.id_width, "example id")
+            a["source"][start:stop] = _fit(encode_strings(sources), L.source_width, "source")
+            self._created()[0].check()
 
     def commit(self, attrs: StoreAttrs) -> str:
         """Mark the store complete and move it into place; returns its path."""
-        attrs.complete = True
-        backend, _ = self._created()
-        backend.write_attrs(attrs.to_json())
-        backend.close()
-        if self.local:
-            target, partial = Path(self.path), Path(self.partial)
-            if target.exists() or target.is_symlink():
-                old = Path(self.path + ".replaced")
-                _remove(old)
-                target.rename(old)
-                partial.rename(target)
-                _remove(old)
-            else:
-                partial.rename(target)
-        self._committed = True
-        return self.path
+        with uninterrupted():
+            attrs.complete = True
+            backend, _ = self._created()
+            backend.write_attrs(attrs.to_json())
+            backend.close()
+            if self.local:
+                target, partial = Path(self.path), Path(self.partial)
+                fsync_tree(partial)
+                check_new_store(self.path, self.overwrite)  # again: something may have come meanwhile
+                move_into_place(partial, target)
+            self._committed = True
+            return self.path
 
 
-def _url_exists(url: str) -> bool:
-    from fsspec.core import url_to_fs
+def _inside(filename: object, folder: str) -> bool:
+    return isinstance(filename, str) and (filename == folder or filename.startswith(folder + os.sep))
 
-    fs, root = url_to_fs(url)
-    return fs.exists(root)
+
+def _check_new_url_store(url: str, overwrite: bool) -> None:
+    """`check_new_store` for a URL: what is there is read with fsspec."""
+    try:
+        from fsspec.core import url_to_fs
+
+        fs, root = url_to_fs(url)
+    except ImportError as e:
+        raise InputError(f"{url}: writing to a URL needs fsspec and the package of its protocol "
+                         f"({e}); see docs/DISTRIBUTED.md") from None
+    except ValueError as e:
+        raise InputError(f"{url}: not a URL odms-data can write to ({e})") from None
+    if not fs.exists(root):
+        return
+    if not overwrite:
+        raise StoreExistsError(f"{url}: already exists; pass --overwrite to replace it")
+    entries = fs.ls(root, detail=False)
+    if not entries:
+        return
+    try:
+        meta = json.loads(fs.cat_file(f"{root.rstrip('/')}/zarr.json"))
+        ours = isinstance(meta.get("attributes", {}).get(ATTRS_KEY), dict)
+    except (OSError, ValueError, AttributeError):
+        ours = False
+    if not ours:
+        raise StoreExistsError(f"{url}: holds {len(entries)} entries that are not an odms-data store; "
+                               "--overwrite replaces only an odms-data store, so choose another output")
 
 
 def write_shard_masks(

@@ -70,7 +70,7 @@ def test_validate_exits_1_and_lists_problems(tmp_path):
     (["generate", "--split", "sim-nope"], ["unknown split 'sim-nope'", "sim-val"]),
     (["generate", "--split", "sim-val", "-n", "3"], ["drop -n"]),
     (["generate", "-n", "2", "--param", "d_min=abc"], ["not a number or JSON list"]),
-    (["generate", "-n", "2", "--param", 'd_min="abc"'], ["wrong type"]),
+    (["generate", "-n", "2", "--param", 'd_min="abc"'], ["d_min must be a number > 0 and <= 1e+06"]),
     (["generate", "-n", "2", "--param", "colour=1"], ["unknown name(s) colour"]),
     (["generate", "-n", "2", "--param", "d_min"], ["expected NAME=VALUE"]),
     (["generate", "-n", "2", "--param", "d_max=0.15"], ["dz_min"]),

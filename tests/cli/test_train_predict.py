@@ -137,7 +137,7 @@ def test_bad_input(tmp_path, val_store):
     preds, other = tmp_path / "p.csv", tmp_path / "q.csv"
     preds.write_text("mine")
     predict = ["predict", "--data", str(val_store), "--workers", "0"]
-    _fails([*predict, str(run), "-o", str(preds)], "p.csv: exists")
+    _fails([*predict, str(run), "-o", str(preds)], "p.csv: already exists")
     assert preds.read_text() == "mine"
     _fails([*predict, str(tmp_path / "notes"), "-o", str(other)], "not a training run")
     config = run / "config.json"

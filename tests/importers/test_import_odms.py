@@ -190,12 +190,23 @@ def test_bad_release_is_one_line_and_writes_nothing(tmp_path, case):
     assert not out.exists() or not any(out.iterdir())
 
 
+@pytest.mark.parametrize("overwrite", [(), ("--overwrite",)])
+def test_an_output_that_is_a_file_is_named_and_kept(tmp_path, overwrite):
+    data = fake_release(tmp_path)
+    out = tmp_path / "thesis.pdf"
+    out.write_bytes(b"my thesis")
+    result = run_import(data, out, "normal", "--no-verify", *overwrite)
+    line = _one_line_error(result, "thesis.pdf: is a file")
+    assert "give a folder" in line and out.read_bytes() == b"my thesis"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["data", "thesis.pdf"]
+
+
 def test_content_differing_from_the_manifest_is_refused(tmp_path):
     data = fake_release(tmp_path)
     out = tmp_path / "stores"
     line = _one_line_error(run_import(data, out), "normal-val.zarr")
     assert "does not match split 'normal-val': 3 examples, manifest says 2000; digest sha256:" in line
-    assert not any(out.iterdir())
+    assert not out.exists()  # nothing written, not even the folder made for it
     result = run_import(data, out, "normal", "--no-verify")
     assert result.exit_code == 0, result.output
     assert "stored as split normal-val-modified" in result.output
@@ -213,7 +224,7 @@ def test_skip_bad_imports_the_rest_and_reports(tmp_path):
     assert "synthetic_1/" in result.output and "synthetic_2/info.txt" in result.output
     with open_store(str(out / "driving-val.h5")) as s:
         assert s.attrs.split == "driving-val-modified"
-        assert s.example_ids == ["driving-val/synthetic_3", "driving-val/synthetic_4"]
+        assert s.example_ids == ["driving-val-modified/synthetic_3", "driving-val-modified/synthetic_4"]
         ex = s.example(0)
         assert ex.z[0] == 0.0 and ex.d1 == 9.0 and np.all(np.diff(ex.z) > 0)
         skipped = [o["example"] for o in s.attrs.oddities if o["kind"] == "skipped"]

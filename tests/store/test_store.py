@@ -137,7 +137,7 @@ def test_validate_finds_edited_attributes_and_statistics(tmp_path, small_zarr):
     bad3 = _copy(small_zarr, tmp_path / "d1.zarr")
     zarr.open_array(store=str(bad3), path="d1", mode="r+")[3] = -1.0
     problems = validate(str(bad3)).problems
-    assert any("small/000003: d1 = -1.0" in p for p in problems)
+    assert any("d1 of example 'small/000003' is -1.0, not a positive depth" in p for p in problems)
     assert any("digest" in p for p in problems)
 
 
