@@ -150,18 +150,28 @@ def atomic_file(path: str | os.PathLike, *, overwrite: bool = False, option: str
     renamed onto `path`; on an error it is removed and `path` is as it was."""
     with output_lock(path):
         check_new_file(path, overwrite, option)
-        partial = Path(f"{path}.partial")
-        try:
-            remove(partial)
+        with replaced_via_partial(path) as partial:
             yield partial
-            fsync_tree(partial)
-            os.replace(partial, path)
-            sync_parent(path)
-        except BaseException as e:
-            remove(partial)
-            if isinstance(e, OSError) and (e.errno in DISK_FULL or e.filename in (str(partial), partial)):
-                raise write_error(path, e) from e
-            raise
+
+
+@contextmanager
+def replaced_via_partial(path: str | os.PathLike) -> Iterator[Path]:
+    """`atomic_file` without the lock and the existence check, for a file that its owner
+    replaces as it goes (a training run's checkpoints): yields `<path>.partial`, flushed and
+    renamed onto `path` when the block ends normally, removed (and a full disk one line naming
+    `path`) when it does not."""
+    partial = Path(f"{path}.partial")
+    try:
+        remove(partial)
+        yield partial
+        fsync_tree(partial)
+        os.replace(partial, path)
+        sync_parent(path)
+    except BaseException as e:
+        remove(partial)
+        if isinstance(e, OSError) and (e.errno in DISK_FULL or e.filename in (str(partial), partial)):
+            raise write_error(path, e) from e
+        raise
 
 
 def write_bytes(path: str | os.PathLike, data: bytes, *, overwrite: bool = False, option: str = "") -> None:
