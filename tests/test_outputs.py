@@ -8,10 +8,10 @@ import signal
 
 import pytest
 
-from odms_data.errors import InputError, Interrupted, OutputExistsError
+from odms_data.errors import InputError, Interrupted, OutputExistsError, WriteError
 from odms_data.evaluation.predictions import read_predictions
 from odms_data.interrupts import stop_requested, uninterrupted
-from odms_data.outputs import atomic_file, check_new_file, write_text
+from odms_data.outputs import atomic_file, check_new_file, replaced_via_partial, write_text
 
 
 def test_a_failed_write_keeps_the_old_file_and_leaves_nothing(tmp_path):
@@ -24,6 +24,22 @@ def test_a_failed_write_keeps_the_old_file_and_leaves_nothing(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.csv"]
     write_text(out, "new", overwrite=True)
     assert out.read_text() == "new" and sorted(p.name for p in tmp_path.iterdir()) == ["r.csv"]
+
+
+def test_a_file_replaced_as_it_goes_survives_a_full_disk(tmp_path):
+    """What a training run does with its checkpoints: no existence check, the same safety."""
+    import errno
+
+    out = tmp_path / "last.pt"
+    out.write_bytes(b"iteration 10")
+    full = pytest.raises(WriteError, match="last.pt: cannot be written: no space")
+    with full, replaced_via_partial(out) as partial:
+        partial.write_bytes(b"iteration 2")
+        raise OSError(errno.ENOSPC, "No space left on device", str(partial))
+    assert out.read_bytes() == b"iteration 10" and [p.name for p in tmp_path.iterdir()] == ["last.pt"]
+    with replaced_via_partial(out) as partial:
+        partial.write_bytes(b"iteration 20")
+    assert out.read_bytes() == b"iteration 20" and [p.name for p in tmp_path.iterdir()] == ["last.pt"]
 
 
 def test_existing_paths_folders_and_suffixes_are_refused(tmp_path):

@@ -6,15 +6,15 @@
     RUN/curves.csv    one row per training iteration and per validation store and validation
     RUN/curves.png    the curves, drawn when the run completes
 
-Checkpoints and the configuration are written to a `.partial` sibling and renamed into place, so
-an interruption leaves the previous complete file.
+Checkpoints, the configuration and the plot are written to a `.partial` sibling, flushed and
+renamed into place (outputs.replaced_via_partial), so an interruption or a full disk leaves the
+previous complete file and no sibling.
 """
 
 from __future__ import annotations
 
 import csv
 import json
-import os
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, fields
@@ -23,6 +23,7 @@ from typing import IO, Any
 
 from .._version import __version__
 from ..errors import InputError
+from ..outputs import replaced_via_partial
 from ..simulate.params import PRESETS
 from ..store.manifests import load_manifest, split_names
 from .variants import variant
@@ -94,10 +95,10 @@ def _splits_of_seed(seed: int) -> list[str]:
 
 
 def replace_atomically(path: Path, write: Callable[[Path], object]) -> None:
-    """write(partial) to a sibling, then rename it onto `path`."""
-    partial = path.with_name(path.name + ".partial")
-    write(partial)
-    os.replace(partial, path)
+    """write(partial) to a sibling, flushed and renamed onto `path`; on a failure the sibling is
+    removed, `path` keeps its previous content and a full disk is one line naming `path`."""
+    with replaced_via_partial(path) as partial:
+        write(partial)
 
 
 class RunFolder:
