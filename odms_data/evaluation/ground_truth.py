@@ -42,7 +42,7 @@ def find_stores(locations: Iterable[Path]) -> dict[str, Path]:
     locations = list(locations)
     paths: list[Path] = []
     for loc in locations:
-        if _is_store(loc) and loc.exists():
+        if (_is_store(loc) and loc.exists()) or (loc / "zarr.json").is_file():  # a store, named any way
             paths.append(loc)
         elif loc.is_dir():
             paths += sorted(p for p in loc.iterdir() if _is_store(p))
