@@ -6,8 +6,8 @@ The CPU makes the examples' random draws and each frame's polygon (object_model,
 batch_render.frame_geometry: a third of a millisecond an example); the device does the rest,
 for all frames at once, on canvases grouped by size:
 
-- the pixels each contour passes through (raster.contour_pixels' float64 operations in the same
-  order, so the same pixels);
+- the pixels each contour passes through (the float64 operations of raster.py's marking in the
+  same order, so the same pixels);
 - filling what they enclose (raster.py's rule: background not
   4-connected to the canvas border). Connectivity, not crossing parity: a pocket of background
   closed off by contour pixels, or a loop of a self-crossing contour, is object under the rule
@@ -57,8 +57,10 @@ def area_weights(full: int, small: int) -> np.ndarray:
 
 
 def contour_pixels(poly: torch.Tensor, starts: torch.Tensor, width: int, base: torch.Tensor) -> torch.Tensor:
-    """raster.contour_pixels on `poly`'s device: the same float64 operations in the same order,
-    so the same pixels. starts (F + 1,) and base (F,) int64, poly (P, 2) float64."""
+    """Flat indices `y * width + x + base[j]` of the pixels (x, y) closed polygon j passes through
+    (raster.py's marking, the same float64 operations in the same order, so the same pixels), on
+    `poly`'s device; a pixel may appear more than once. Polygon j is rows starts[j] ..
+    starts[j + 1] - 1 of poly (P, 2) float64; starts (F + 1,) and base (F,) int64."""
     P, on = len(poly), poly.device
     succ = torch.arange(1, P + 1, device=on)
     succ[starts[1:] - 1] = starts[:-1]

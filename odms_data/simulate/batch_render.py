@@ -11,8 +11,8 @@ the slow way (render.py, shrink.py).
 
 The per-frame arithmetic of `render.render_frame` is done once for all frames of all examples,
 in the same order of operations (so the same floats), and frames are stacked as rows of one
-image whose contour pixels (raster.py) are marked at once; each frame's canvas keeps an empty
-border, so its enclosed pixels can be filled on its own or stacked with others. Frames where a
+image where raster.draw_silhouettes draws them in one call; each frame's canvas keeps an empty
+border. Frames where a
 shortcut would not hold (a box leaving the image) go through render_frame.
 tests/loaders/test_loaders_transforms.py checks equality with the slow way.
 """
@@ -28,7 +28,7 @@ import numpy as np
 from ..errors import InputError
 from .object_model import ExampleSpec
 from .params import GeneratorParams
-from .raster import contour_pixels, draw_silhouette, fill_enclosed
+from .raster import draw_silhouette, draw_silhouettes
 from .render import CROSS, render_frame
 from .shrink import periods_of, resize_masks, shrink_into
 
@@ -56,12 +56,9 @@ class FrameGeometry:
         rows = np.arange(starts[-1]) + np.repeat(self.starts[frames] - starts[:-1], lengths)
         return self.poly[rows], starts
 
-
-def _mark(image: np.ndarray, poly: np.ndarray, starts: np.ndarray, offsets: np.ndarray) -> None:
-    """Mark the contour pixels of the frames in `poly` (starts as in contour_pixels) in the
-    C-contiguous `image`, each frame's canvas corner put at its (x, y) offset (offsets: (k, 2))."""
-    W = image.shape[1]
-    image.ravel()[contour_pixels(poly, starts, W, offsets[:, 1] * W + offsets[:, 0])] = 1
+    def draw(self, image: np.ndarray, frames: np.ndarray, corners: np.ndarray) -> None:
+        """Draw the silhouettes of `frames` onto `image`, their canvas corners at `corners` (x, y)."""
+        draw_silhouettes(image, self.poly, self.starts, frames, corners)
 
 
 def frame_geometry(
@@ -126,10 +123,7 @@ def render_masks(
         stacked = out.reshape(-1, W)
         drawn = np.flatnonzero(inside)
         corners = g.lo + np.stack([np.zeros_like(rows), rows], axis=1)
-        _mark(stacked, *g.gather(drawn), corners[drawn])
-        for f in drawn:  # each frame's canvas, which has an empty border
-            (x0, y0), (x1, y1) = g.lo[f], g.hi[f]
-            fill_enclosed(stacked[rows[f] + y0 : rows[f] + y1, x0:x1])
+        g.draw(stacked, drawn, corners[drawn])
     for f in np.flatnonzero(~inside):
         e, j = divmod(int(f), n)
         render_frame(specs[e], params, int(frames[j]), out[e, j])
@@ -149,8 +143,7 @@ def render_boxes(
     size = g.hi - g.lo
     tops = np.concatenate([[0], np.cumsum(size[:, 1])])
     stacked = np.zeros((int(tops[-1]), int(size[:, 0].max())), np.uint8)  # the canvases, top to bottom
-    _mark(stacked, g.poly, g.starts, np.stack([np.zeros_like(tops[:-1]), tops[:-1]], axis=1))
-    fill_enclosed(stacked, tops[:-1])  # each canvas has an empty border; the columns right of it too
+    g.draw(stacked, np.arange(len(size)), np.stack([np.zeros_like(tops[:-1]), tops[:-1]], axis=1))
     clip_lo, clip_hi = np.maximum(g.lo, 0), np.minimum(g.hi, [W, H])
     whole = (clip_lo == g.lo).all(axis=1) & (clip_hi == g.hi).all(axis=1) & (g.dilate | (g.k == 0))
     out: list[tuple[np.ndarray, int, int, bool] | None] = []
@@ -208,14 +201,12 @@ def render_shrunk(
     above = np.cumsum(heights) - heights
     top = above - np.repeat(above[groups[:-1]], np.diff(groups))
     offsets = g.lo[tiled] - tile_lo[tiled] + np.stack([np.zeros_like(top), top], axis=1)
-    poly, starts = g.gather(tiled)
     for a, b in zip(groups[:-1], groups[1:], strict=True):
         tiles, width = tiled[a:b], int(widths[a])
         canvas: np.ndarray = np.zeros((int(top[b - 1] + heights[b - 1]), width), np.uint8)
         # render_frame's canvas lies inside the tile with an empty margin, so drawing and
         # perturbing on the tile gives the same pixels as on the canvas
-        _mark(canvas, poly[starts[a] : starts[b]], starts[a : b + 1] - starts[a], offsets[a:b])
-        fill_enclosed(canvas, top[a:b])
+        g.draw(canvas, tiles, offsets[a:b])
         for t in np.flatnonzero(g.k[tiles]) + a:
             band = canvas[top[t] : top[t] + heights[t]]
             op = cv2.dilate if g.dilate[tiled[t]] else cv2.erode

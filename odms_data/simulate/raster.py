@@ -1,5 +1,5 @@
 """How a contour becomes a silhouette (generator v2): the rule of the authors' released generator,
-computed exactly.
+computed exactly, compiled with Numba.
 
 Pixel (x, y) is the half-open square [x, x + 1) x [y, y + 1) of contour coordinates. A pixel is
 object when the closed contour passes through it, or when it is enclosed by such pixels: not
@@ -8,75 +8,105 @@ even where the contour crosses itself. The released generator marks the pixel of
 points per Bezier segment and fills the holes; this marks every pixel each straight edge of the
 contour polygon passes through, computed in float64 (where an edge runs exactly through a pixel
 corner, its direction decides which of the pixels meeting there it marks).
+
+The fill needs no flood over the whole canvas. In each row, the pixels left of the leftmost and
+right of the rightmost contour pixel are outside. A pixel between them lies outside exactly when
+it is 4-connected, through pixels the contour misses and without leaving the rows' spans, to such
+a pixel of the row above or below: a path to the border leaves the spans vertically, since it
+cannot step past a span's end pixel, which the contour marks.
 """
 
 from __future__ import annotations
 
-import cv2
+import math
+
+import numba
 import numpy as np
 
-from ..errors import InputError
-
-cv2.setNumThreads(1)
-MAX_FILL_ROWS = 65536  # cv2.floodFill stops there
+OUTSIDE = 2  # a pixel between a row's ends found to lie outside, while filling
 
 
-def contour_pixels(
-    poly: np.ndarray, starts: np.ndarray, width: int, base: np.ndarray | None = None
-) -> np.ndarray:
-    """Flat indices `y * width + x + base[j]` of the pixels (x, y) that closed polygon j passes
-    through, for an image `width` pixels wide; a pixel may appear more than once.
-
-    `poly` (P, 2) holds the vertices x, y of every polygon, polygon j being rows starts[j] to
-    starts[j + 1] - 1, closed by an edge from its last vertex back to its first. Going round a
-    polygon from its first vertex, each grid line an edge crosses leads into the next pixel.
-    """
-    P = len(poly)
-    succ = np.arange(1, P + 1)
-    succ[starts[1:] - 1] = starts[:-1]
-    nxt = poly[succ]
-    # edges 0..P-1 cross the lines x = X, edges P..2P-1 (the same ones) the lines y = Y
-    a0, a1 = poly.T.ravel(), nxt.T.ravel()  # from, to along the crossed axis
-    b0 = poly[:, ::-1].T.ravel()  # from along the other axis
-    first = np.floor(np.minimum(a0, a1)) + 1
-    count = np.floor(np.maximum(a0, a1)) - first + 1
-    crossing = np.flatnonzero(count > 0)  # the edges that cross a grid line
-    count = count[crossing].astype(np.int64)
-    edge = np.repeat(crossing, count)
-    line = np.arange(len(edge)) + np.repeat(first[crossing] - (np.cumsum(count) - count), count)
-    slope = (nxt[:, ::-1].T.ravel()[crossing] - b0[crossing]) / (a1[crossing] - a0[crossing])
-    across = np.floor(b0[edge] + (line - a0[edge]) * np.repeat(slope, count))
-    line -= (a1 < a0)[edge]  # moving down the axis, the pixel beyond line X is X - 1
-    nx = int(count[: np.searchsorted(crossing, P)].sum())
-    index = np.concatenate((across[:nx] * width + line[:nx], line[nx:] * width + across[nx:]))
-    start = np.floor(poly[starts[:-1]])  # every other pixel is entered across a grid line
-    index = np.concatenate((start[:, 1] * width + start[:, 0], index))
-    if base is not None:
-        index += np.concatenate((base, np.tile(np.repeat(base, np.diff(starts)), 2)[edge]))
-    return index.astype(np.int64)
+@numba.njit(cache=True, nogil=True)
+def _mark(img, poly, s, e, cx, cy, left, right):  # pragma: no cover - compiled
+    """Mark the pixels closed polygon poly[s:e] passes through, its canvas corner at column cx,
+    row cy of img; left/right[y]: the leftmost and rightmost marked column of canvas row y."""
+    x, y = int(math.floor(poly[s, 0])), int(math.floor(poly[s, 1]))
+    img[cy + y, cx + x] = 1  # every other pixel is entered across a grid line
+    left[y], right[y] = min(left[y], x), max(right[y], x)
+    for v in range(s, e):
+        w = v + 1 if v + 1 < e else s
+        x0, y0, x1, y1 = poly[v, 0], poly[v, 1], poly[w, 0], poly[w, 1]
+        line, last = math.floor(min(x0, x1)) + 1.0, math.floor(max(x0, x1))
+        if line <= last:  # the lines x = X the edge crosses, each into the next pixel
+            slope, back = (y1 - y0) / (x1 - x0), 1 if x1 < x0 else 0
+            while line <= last:
+                x, y = int(line) - back, int(math.floor(y0 + (line - x0) * slope))
+                img[cy + y, cx + x] = 1
+                left[y], right[y] = min(left[y], x), max(right[y], x)
+                line += 1.0
+        line, last = math.floor(min(y0, y1)) + 1.0, math.floor(max(y0, y1))
+        if line <= last:  # the lines y = Y
+            slope, back = (x1 - x0) / (y1 - y0), 1 if y1 < y0 else 0
+            while line <= last:
+                x, y = int(math.floor(x0 + (line - y0) * slope)), int(line) - back
+                img[cy + y, cx + x] = 1
+                left[y], right[y] = min(left[y], x), max(right[y], x)
+                line += 1.0
 
 
-def fill_enclosed(canvas: np.ndarray, parts: np.ndarray | None = None) -> None:
-    """In place on a uint8 0/1 image: every pixel not 4-connected through background to pixel
-    (0, 0) of its part becomes 1.
+@numba.njit(cache=True, nogil=True)
+def _fill(img, cx, cy, left, right, stack):  # pragma: no cover - compiled
+    """Fill what the marked contour encloses (module docstring); stack: room for every pixel."""
+    h, n = len(left), 0
+    for y in range(h):
+        for x in range(left[y] + 1, right[y]):
+            if img[cy + y, cx + x] == 0:
+                above = y > 0 and left[y - 1] <= x <= right[y - 1]
+                below = y + 1 < h and left[y + 1] <= x <= right[y + 1]
+                if not (above and below):
+                    img[cy + y, cx + x] = OUTSIDE
+                    stack[n, 0], stack[n, 1] = y, x
+                    n += 1
+    while n > 0:
+        n -= 1
+        y0, x0 = stack[n, 0], stack[n, 1]
+        for d in range(4):
+            y, x = y0 + (d == 1) - (d == 0), x0 + (d == 3) - (d == 2)
+            if 0 <= y < h and left[y] < x < right[y] and img[cy + y, cx + x] == 0:
+                img[cy + y, cx + x] = OUTSIDE
+                stack[n, 0], stack[n, 1] = y, x
+                n += 1
+    for y in range(h):
+        for x in range(left[y] + 1, right[y]):
+            img[cy + y, cx + x] = img[cy + y, cx + x] != OUTSIDE
 
-    `parts` (ascending, from 0): the first rows of images stacked top to bottom, each with an
-    empty border (default: one image). cv2.floodFill reaches at most 65,536 rows, so parts are
-    filled a block at a time.
-    """
-    bounds = np.append([0] if parts is None else parts, len(canvas))
-    start = 0
-    while start < len(canvas):
-        stop = bounds[np.searchsorted(bounds, start + MAX_FILL_ROWS, side="right") - 1]
-        if stop <= start:
-            raise InputError(f"cannot fill an image of more than {MAX_FILL_ROWS} rows; draw smaller objects")
-        cv2.floodFill(canvas[start:stop], None, (0, 0), 2)
-        start = stop
-    cv2.threshold(canvas, 1, 1, cv2.THRESH_BINARY_INV, dst=canvas)
+
+@numba.njit(cache=True, nogil=True)
+def draw_silhouettes(img, poly, starts, frames, corners):  # pragma: no cover - compiled
+    """Draw the silhouette of polygon f = frames[t] onto the uint8 image img (zero where drawn),
+    its canvas corner at corners[t] (x, y). Polygon f is rows starts[f] .. starts[f + 1] - 1 of
+    poly (vertices x, y relative to its canvas corner, at least one pixel from the canvas' top and
+    left); its pixels must lie inside img, with an empty pixel beyond them below and right."""
+    room = 0
+    for f in frames:
+        p = poly[starts[f] : starts[f + 1]]
+        room = max(room, int(p[:, 0].max() + 2) * int(p[:, 1].max() + 2))
+    stack = np.empty((room, 2), np.int64)
+    for t in range(len(frames)):
+        s, e = starts[frames[t]], starts[frames[t] + 1]
+        p = poly[s:e]
+        cx, cy = corners[t, 0], corners[t, 1]
+        h = int(math.floor(p[:, 1].max())) + 1
+        w = int(math.floor(p[:, 0].max())) + 1
+        if p.min() < 1 or cx < 0 or cy < 0 or cy + h >= img.shape[0] or cx + w >= img.shape[1]:
+            raise ValueError("a polygon leaves its canvas or the image")
+        left, right = np.full(h, w, np.int64), np.full(h, -1, np.int64)
+        _mark(img, poly, s, e, cx, cy, left, right)
+        _fill(img, cx, cy, left, right, stack)
 
 
 def draw_silhouette(canvas: np.ndarray, poly: np.ndarray) -> None:
     """Draw the silhouette of the closed polygon `poly` (m, 2; x, y in pixels) onto `canvas`
     (zeros, with at least one empty pixel between the polygon and every edge)."""
-    canvas.ravel()[contour_pixels(poly, np.array([0, len(poly)]), canvas.shape[1])] = 1
-    fill_enclosed(canvas)
+    poly = np.ascontiguousarray(poly, np.float64)
+    draw_silhouettes(canvas, poly, np.array([0, len(poly)]), np.array([0]), np.zeros((1, 2), np.int64))

@@ -9,10 +9,9 @@ import numpy as np
 import pytest
 import scipy.ndimage
 
-from odms_data.errors import InputError
 from odms_data.simulate.object_model import sample_example
 from odms_data.simulate.params import GeneratorParams, preset
-from odms_data.simulate.raster import MAX_FILL_ROWS, contour_pixels, draw_silhouette, fill_enclosed
+from odms_data.simulate.raster import OUTSIDE, _fill, _mark, draw_silhouette, draw_silhouettes
 from odms_data.simulate.render import render_masks
 
 
@@ -34,8 +33,14 @@ def _touches(p: np.ndarray, q: np.ndarray, x: int, y: int) -> bool:
 
 
 def _pixels(poly: np.ndarray) -> set[tuple[int, int]]:
-    index = contour_pixels(poly, np.array([0, len(poly)]), 100, np.array([0]))
-    return {(int(i % 100), int(i // 100)) for i in index}
+    """The pixels raster.py marks for the closed polygon `poly`."""
+    image = np.zeros((100, 100), np.uint8)
+    left, right = np.full(100, 100), np.full(100, -1)
+    _mark(image, poly, 0, len(poly), 0, 0, left, right)
+    ys, xs = np.nonzero(image)
+    assert np.array_equal(left[ys], [xs[ys == y].min() for y in ys])  # the spans the fill uses
+    assert np.array_equal(right[ys], [xs[ys == y].max() for y in ys])
+    return set(zip(xs.tolist(), ys.tolist(), strict=True))
 
 
 def test_contour_pixels_are_the_pixels_the_edges_pass_through():
@@ -49,12 +54,27 @@ def test_contour_pixels_are_the_pixels_the_edges_pass_through():
         assert _pixels(poly) == want
     # on a grid line, an edge is in the pixels right of and below it: pixels are half-open
     assert _pixels(np.array([[9.0, 2.5], [9.0, 6.5], [9.0, 4.0]])) == {(9, y) for y in range(2, 7)}
-    # several polygons at once, each moved by its own offset
-    starts = np.cumsum([0, *map(len, polys[:3])])
-    index = contour_pixels(np.concatenate(polys[:3]), starts, 100, np.array([0, 20, 2000]))
-    want = {(x, y) for x, y in _pixels(polys[0])}
-    want |= {(x + 20, y) for x, y in _pixels(polys[1])} | {(x, y + 20) for x, y in _pixels(polys[2])}
-    assert {(int(i % 100), int(i // 100)) for i in index} == want
+
+
+def test_several_silhouettes_are_drawn_each_at_its_corner():
+    rng = np.random.default_rng(4)
+    polys = [rng.random((m, 2)) * 12 + 1 for m in (3, 5, 8)]
+    starts = np.cumsum([0, *map(len, polys)])
+    corners = np.array([[20, 0], [0, 20], [3, 4]])
+    image = np.zeros((40, 40), np.uint8)
+    draw_silhouettes(image, np.concatenate(polys), starts, np.array([2, 0, 1]), corners)
+    want = np.zeros_like(image)
+    for poly, (x, y) in zip([polys[2], polys[0], polys[1]], corners, strict=True):
+        one = np.zeros((16, 16), np.uint8)
+        draw_silhouette(one, poly)
+        want[y : y + 16, x : x + 16] |= one
+    assert np.array_equal(image, want) and image.sum() > 30
+
+
+def test_a_polygon_that_leaves_its_canvas_is_refused():
+    for poly in ([[0.5, 3], [8, 3], [4, 9]], [[2, 3], [8, 3], [4, 15.5]]):
+        with pytest.raises(ValueError, match="leaves its canvas"):
+            draw_silhouette(np.zeros((16, 16), np.uint8), np.array(poly, float))
 
 
 def test_a_self_crossing_contour_gives_a_silhouette_without_holes():
@@ -67,15 +87,19 @@ def test_a_self_crossing_contour_gives_a_silhouette_without_holes():
     assert canvas[12:18, 12:28].all()  # the loop's inner square, enclosed twice, is filled
 
 
-def test_fill_enclosed_fills_each_stacked_part_past_cv2s_row_limit():
-    part = np.zeros((30_000, 9), np.uint8)
-    part[10:15, 2:7] = 1
-    part[12, 4] = 0  # a hole
-    image = np.concatenate([part] * 3)  # 90,000 rows
-    fill_enclosed(image, np.arange(0, 90_000, 30_000))
-    assert image.sum() == 3 * 25
-    with pytest.raises(InputError, match="65536 rows"):
-        fill_enclosed(np.zeros((MAX_FILL_ROWS + 1, 2), np.uint8))
+def test_the_fill_is_scipys_hole_filling_on_random_outlines():
+    rng = np.random.default_rng(5)
+    for density in (0.2, 0.35, 0.5):  # pockets, spirals, islands enclosed in enclosed regions
+        for _ in range(40):
+            image = np.zeros((30, 24), np.uint8)
+            image[1:-1, 1:-1] = rng.random((28, 22)) < density
+            marked = np.nonzero(image.any(axis=1))[0]
+            left, right = np.full(30, 24), np.full(30, -1)
+            left[marked] = image[marked].argmax(axis=1)
+            right[marked] = 23 - image[marked, ::-1].argmax(axis=1)
+            want = scipy.ndimage.binary_fill_holes(image)
+            _fill(image, 0, 0, left, right, np.empty((30 * 24, 2), np.int64))
+            assert np.array_equal(image, want) and OUTSIDE not in image
 
 
 def _released_generator_masks(params: GeneratorParams, seed: int, index: int) -> np.ndarray:
