@@ -5,17 +5,15 @@ the slow way (render.py, shrink.py).
   straight at the small size).
 - `render_shrunk`: what `resize_masks(render.render_masks(spec, params), size)` gives (the
   full-size mask shrunk with INTER_AREA, as a store read through the loaders), drawing only each
-  object's box at full size (see shrink.py for why that gives the same pixels).
+  object's canvas at full size and shrinking it with cv2's arithmetic (shrink.shrink_canvases).
 - `render_boxes`: what `render.render_frame` draws into each full-size frame and where (the
   generator writing a store).
 
 The per-frame arithmetic of `render.render_frame` is done once for all frames of all examples,
-in the same order of operations (so the same floats), and frames are stacked as rows of one
-image where raster.draw_silhouettes draws them in one call; each frame's canvas keeps an empty
-border. Frames where a
-shortcut would not hold (a box leaving the image) go through render_frame.
-tests/loaders/test_loaders_transforms.py checks equality with the slow way.
-"""
+in the same order of operations (so the same floats), and the frames' canvases are stacked as
+rows of one image where raster.draw_silhouettes draws them in one call. render_masks draws
+frames whose canvas leaves the image, or is perturbed, through render_frame.
+tests/loaders/test_loaders_transforms.py checks equality with the slow way."""
 
 from __future__ import annotations
 
@@ -23,14 +21,15 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import cv2
+import numba
 import numpy as np
 
 from ..errors import InputError
 from .object_model import ExampleSpec
 from .params import GeneratorParams
-from .raster import draw_silhouette, draw_silhouettes
+from .raster import draw_silhouettes
 from .render import CROSS, render_frame
-from .shrink import periods_of, resize_masks, shrink_into
+from .shrink import resize_masks, shrink_canvases, shrink_tables
 
 cv2.setNumThreads(1)
 
@@ -45,9 +44,6 @@ class FrameGeometry:
     hi: np.ndarray  # (F, 2) x1, y1, exclusive
     k: np.ndarray  # (F,) perturbation steps
     dilate: np.ndarray  # (F,) whether a perturbation dilates (else erodes)
-
-    def polygon(self, f: int) -> np.ndarray:
-        return self.poly[self.starts[f] : self.starts[f + 1]]
 
     def gather(self, frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The vertices of `frames`, in that order, and where each frame's begin (len + 1)."""
@@ -68,22 +64,43 @@ def frame_geometry(
     H0, W0 = params.image_size
     H, W = size
     n = len(frames)
-    sx_sy = np.array([W / W0, H / H0])
+    sx, sy = W / W0, H / H0
     scale = params.d_min / np.concatenate([s.z[frames] for s in specs])
     half = scale * np.repeat([s.size for s in specs], n) / 2
-    lengths = np.repeat([len(s.contour) for s in specs], n)
-    starts = np.concatenate([[0], np.cumsum(lengths)])
-    poly = np.concatenate([np.broadcast_to(s.contour, (n, *s.contour.shape)).reshape(-1, 2) for s in specs])
-    poly *= np.repeat(scale, lengths)[:, None]  # in place from here on: fewer allocations
-    poly += [W0 / 2, H0 / 2]
-    poly -= np.repeat(half, lengths)[:, None]
-    poly *= sx_sy
+    lengths = np.array([len(s.contour) for s in specs])
+    starts = np.concatenate([[0], np.cumsum(np.repeat(lengths, n))])
     perturb = np.concatenate([s.perturb[frames] for s in specs])
-    k = np.round(np.abs(perturb) * sx_sy.min()).astype(np.int64)
-    lo = np.floor(np.minimum.reduceat(poly, starts[:-1], axis=0)).astype(np.int64) - (k + 1)[:, None]
-    hi = np.ceil(np.maximum.reduceat(poly, starts[:-1], axis=0)).astype(np.int64) + (k + 2)[:, None]
-    poly -= np.repeat(lo, lengths, axis=0)
+    k = np.round(np.abs(perturb) * min(sx, sy)).astype(np.int64)
+    contours = np.concatenate([s.contour for s in specs])
+    poly, lo, hi = _placed(contours, lengths, n, scale, half, W0 / 2, H0 / 2, sx, sy, k)
     return FrameGeometry(poly, starts, lo, hi, k, perturb >= 0)
+
+
+@numba.njit(cache=True, nogil=True)
+def _placed(contours, lengths, n, scale, half, cx, cy, sx, sy, k):
+    """Each example's contour placed in each of its n frames f (example-major): render_frame's
+    ((c * scale + centre) - half) * s per axis, then made relative to the canvas corner lo;
+    returns the vertices, lo and hi (exclusive) of every frame's canvas."""
+    F = len(lengths) * n
+    poly = np.empty((n * lengths.sum(), 2))
+    lo, hi = np.empty((F, 2), np.int64), np.empty((F, 2), np.int64)
+    row, first = 0, 0
+    for e in range(len(lengths)):
+        m = lengths[e]
+        for f in range(e * n, e * n + n):
+            low, high = np.full(2, np.inf), np.full(2, -np.inf)
+            for v in range(m):
+                for a, c, s in ((0, cx, sx), (1, cy, sy)):
+                    p = (contours[first + v, a] * scale[f] + c - half[f]) * s
+                    poly[row + v, a] = p
+                    low[a], high[a] = min(low[a], p), max(high[a], p)
+            for a in range(2):
+                lo[f, a] = int(np.floor(low[a])) - (k[f] + 1)
+                hi[f, a] = int(np.ceil(high[a])) + k[f] + 2
+                poly[row : row + m, a] -= lo[f, a]
+            row += m
+        first += m
+    return poly, lo, hi
 
 
 def _frames(specs: Sequence[ExampleSpec], frames: np.ndarray | None) -> np.ndarray:
@@ -130,6 +147,19 @@ def render_masks(
     return out
 
 
+def _canvases(g: FrameGeometry) -> tuple[np.ndarray, np.ndarray]:
+    """Every frame's canvas as render_frame draws and perturbs it, stacked top to bottom in one
+    image as wide as the widest (frame f from row tops[f], column 0); returns (image, tops)."""
+    size = g.hi - g.lo
+    tops = np.concatenate([[0], np.cumsum(size[:, 1])])
+    stacked = np.zeros((int(tops[-1]), int(size[:, 0].max())), np.uint8)
+    g.draw(stacked, np.arange(len(size)), np.stack([np.zeros_like(tops[:-1]), tops[:-1]], axis=1))
+    for f in np.flatnonzero(g.k):
+        band = stacked[tops[f] : tops[f + 1], : size[f, 0]]
+        band[...] = (cv2.dilate if g.dilate[f] else cv2.erode)(band, CROSS, iterations=int(g.k[f]))
+    return stacked, tops[:-1]
+
+
 def render_boxes(
     specs: Sequence[ExampleSpec], params: GeneratorParams
 ) -> list[tuple[np.ndarray, int, int, bool] | None]:
@@ -140,20 +170,14 @@ def render_boxes(
     the image border."""
     H, W = params.image_size
     g = frame_geometry(specs, params, _frames(specs, None), (H, W))
-    size = g.hi - g.lo
-    tops = np.concatenate([[0], np.cumsum(size[:, 1])])
-    stacked = np.zeros((int(tops[-1]), int(size[:, 0].max())), np.uint8)  # the canvases, top to bottom
-    g.draw(stacked, np.arange(len(size)), np.stack([np.zeros_like(tops[:-1]), tops[:-1]], axis=1))
+    stacked, tops = _canvases(g)
     clip_lo, clip_hi = np.maximum(g.lo, 0), np.minimum(g.hi, [W, H])
     whole = (clip_lo == g.lo).all(axis=1) & (clip_hi == g.hi).all(axis=1) & (g.dilate | (g.k == 0))
     out: list[tuple[np.ndarray, int, int, bool] | None] = []
-    for f in range(len(size)):
-        canvas: np.ndarray = stacked[tops[f] : tops[f + 1], : size[f, 0]]
-        if g.k[f]:
-            canvas = (cv2.dilate if g.dilate[f] else cv2.erode)(canvas, CROSS, iterations=int(g.k[f]))
+    for f in range(len(tops)):
         (x0, y0), (cx0, cy0), (cx1, cy1) = g.lo[f], clip_lo[f], clip_hi[f]
         drawn = cx0 < cx1 and cy0 < cy1
-        box = canvas[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0]
+        box = stacked[tops[f] + cy0 - y0 : tops[f] + cy1 - y0, cx0 - x0 : cx1 - x0]
         out.append((box, int(cx0), int(cy0), bool(whole[f])) if drawn else None)
     return out
 
@@ -169,63 +193,25 @@ def render_shrunk(
     """(examples, k, h, w): `resize_masks(render.render_masks(spec, params)[frames], size,
     coverage)` of each example, written into `out` when given.
 
-    Each frame's box, widened to whole periods of the INTER_AREA grid, becomes a tile. Tiles of
-    one width are stacked in one image, drawn and filled at once, shrunk by one cv2.resize call
-    and cut back into their frames. Frames whose box leaves the image go one by one.
+    Each frame's canvas is drawn at full size and shrunk by shrink.shrink_canvases, which does
+    cv2's arithmetic on the canvas' pixels alone. Sizes where cv2 would grow an axis, and uint8
+    masks at whole-number scales (cv2's fast path rounds its own way), are drawn as full frames
+    and shrunk by cv2.
     """
     H0, W0 = params.image_size
     h, w = size
     frames = _frames(specs, frames)
-    n = len(frames)
     dtype = np.float32 if coverage else np.uint8
-    if h > H0 or w > W0:
+    if h > H0 or w > W0 or (H0 % h == 0 and W0 % w == 0 and not coverage):
         full = render_masks(specs, params, None, frames)
         shrunk = np.stack([resize_masks(m, size, coverage) for m in full])
         if out is None:
             return shrunk
         out[...] = shrunk
         return out
-    out = _out(out, (len(specs), n, h, w), dtype).reshape(-1, h, w)
-    periods = py, qy, px, qx = periods_of((H0, W0), size)
+    out = _out(out, (len(specs), len(frames), h, w), dtype)
     g = frame_geometry(specs, params, frames, (H0, W0))
-    clip_lo, clip_hi = np.maximum(g.lo, 0), np.minimum(g.hi, [W0, H0])
-    tile_lo = clip_lo // [px, py] * [px, py]
-    tile_hi = -(-clip_hi // [px, py]) * [px, py]
-    inside = (g.lo == clip_lo).all(axis=1) & (g.hi == clip_hi).all(axis=1)
-    # tiles of one width are stacked top to bottom, in frame order: tile t of a group starts at
-    # row top[t] of the group's image
-    tiled = np.flatnonzero(inside)
-    tiled = tiled[np.argsort(tile_hi[tiled, 0] - tile_lo[tiled, 0], kind="stable")]
-    widths, heights = (tile_hi[tiled] - tile_lo[tiled]).T
-    groups = np.flatnonzero(np.diff(widths, prepend=-1, append=-1))
-    above = np.cumsum(heights) - heights
-    top = above - np.repeat(above[groups[:-1]], np.diff(groups))
-    offsets = g.lo[tiled] - tile_lo[tiled] + np.stack([np.zeros_like(top), top], axis=1)
-    for a, b in zip(groups[:-1], groups[1:], strict=True):
-        tiles, width = tiled[a:b], int(widths[a])
-        canvas: np.ndarray = np.zeros((int(top[b - 1] + heights[b - 1]), width), np.uint8)
-        # render_frame's canvas lies inside the tile with an empty margin, so drawing and
-        # perturbing on the tile gives the same pixels as on the canvas
-        g.draw(canvas, tiles, offsets[a:b])
-        for t in np.flatnonzero(g.k[tiles]) + a:
-            band = canvas[top[t] : top[t] + heights[t]]
-            op = cv2.dilate if g.dilate[tiled[t]] else cv2.erode
-            band[...] = op(band, CROSS, iterations=int(g.k[tiled[t]]))
-        ow = width // px * qx
-        small = cv2.resize(canvas.astype(dtype, copy=False), (ow, len(canvas) // py * qy),
-                           interpolation=cv2.INTER_AREA)
-        for t in range(a, b):
-            (X0, Y0), oh, r = tile_lo[tiled[t]], heights[t] // py * qy, top[t] // py * qy
-            oy, ox = Y0 // py * qy, X0 // px * qx
-            out[tiled[t], oy : oy + oh, ox : ox + ow] = small[r : r + oh]
-    for f in np.flatnonzero((clip_lo < clip_hi).all(axis=1) & ~inside):
-        (x0, y0), (x1, y1), (X0, Y0), (X1, Y1) = g.lo[f], g.hi[f], tile_lo[f], tile_hi[f]
-        (cx0, cy0), (cx1, cy1) = clip_lo[f], clip_hi[f]
-        canvas = np.zeros((y1 - y0, x1 - x0), np.uint8)
-        draw_silhouette(canvas, g.polygon(int(f)))
-        if g.k[f]:
-            canvas = (cv2.dilate if g.dilate[f] else cv2.erode)(canvas, CROSS, iterations=int(g.k[f]))
-        crop = np.zeros((Y1 - Y0, X1 - X0), dtype)
-        crop[cy0 - Y0 : cy1 - Y0, cx0 - X0 : cx1 - X0] = canvas[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0]
-        shrink_into(out[f], crop, int(X0), int(Y0), periods)
-    return out.reshape(len(specs), n, h, w)
+    stacked, tops = _canvases(g)
+    tables = shrink_tables((H0, W0), size)
+    shrink_canvases(stacked, tops, g.lo, g.hi, out.reshape(-1, h, w), not coverage, *tables)
+    return out

@@ -27,7 +27,7 @@ OUTSIDE = 2  # a pixel between a row's ends found to lie outside, while filling
 
 
 @numba.njit(cache=True, nogil=True)
-def _mark(img, poly, s, e, cx, cy, left, right):  # pragma: no cover - compiled
+def _mark(img, poly, s, e, cx, cy, left, right):
     """Mark the pixels closed polygon poly[s:e] passes through, its canvas corner at column cx,
     row cy of img; left/right[y]: the leftmost and rightmost marked column of canvas row y."""
     x, y = int(math.floor(poly[s, 0])), int(math.floor(poly[s, 1]))
@@ -55,18 +55,24 @@ def _mark(img, poly, s, e, cx, cy, left, right):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True)
-def _fill(img, cx, cy, left, right, stack):  # pragma: no cover - compiled
+def _fill(img, cx, cy, left, right, stack):
     """Fill what the marked contour encloses (module docstring); stack: room for every pixel."""
     h, n = len(left), 0
     for y in range(h):
-        for x in range(left[y] + 1, right[y]):
-            if img[cy + y, cx + x] == 0:
-                above = y > 0 and left[y - 1] <= x <= right[y - 1]
-                below = y + 1 < h and left[y + 1] <= x <= right[y + 1]
-                if not (above and below):
-                    img[cy + y, cx + x] = OUTSIDE
-                    stack[n, 0], stack[n, 1] = y, x
-                    n += 1
+        row, a, b = img[cy + y], left[y] + 1, right[y]  # the span's inside: a .. b - 1
+        inner, outer = b, b - 1  # the pixels both neighbouring spans cover: inner .. outer
+        if 0 < y < h - 1:
+            inner, outer = max(left[y - 1], left[y + 1]), min(right[y - 1], right[y + 1])
+        for x in range(a, min(b, inner)):
+            if row[cx + x] == 0:
+                row[cx + x] = OUTSIDE
+                stack[n, 0], stack[n, 1] = y, x
+                n += 1
+        for x in range(max(a, outer + 1), b):
+            if row[cx + x] == 0:
+                row[cx + x] = OUTSIDE
+                stack[n, 0], stack[n, 1] = y, x
+                n += 1
     while n > 0:
         n -= 1
         y0, x0 = stack[n, 0], stack[n, 1]
@@ -77,12 +83,13 @@ def _fill(img, cx, cy, left, right, stack):  # pragma: no cover - compiled
                 stack[n, 0], stack[n, 1] = y, x
                 n += 1
     for y in range(h):
-        for x in range(left[y] + 1, right[y]):
-            img[cy + y, cx + x] = img[cy + y, cx + x] != OUTSIDE
+        row = img[cy + y, cx + left[y] + 1 : cx + max(right[y], left[y] + 1)]
+        for x in range(len(row)):
+            row[x] = row[x] != OUTSIDE
 
 
 @numba.njit(cache=True, nogil=True)
-def draw_silhouettes(img, poly, starts, frames, corners):  # pragma: no cover - compiled
+def draw_silhouettes(img, poly, starts, frames, corners):
     """Draw the silhouette of polygon f = frames[t] onto the uint8 image img (zero where drawn),
     its canvas corner at corners[t] (x, y). Polygon f is rows starts[f] .. starts[f + 1] - 1 of
     poly (vertices x, y relative to its canvas corner, at least one pixel from the canvas' top and

@@ -139,7 +139,8 @@ def test_shrunk_render_matches_full_size_shrunk(params):
     frames = np.array([0, 3, 6])
     specs = [sample_example(params, 12, index) for index in range(40)]
     full = [generator_render(spec, params)[frames] for spec in specs]
-    for size, coverage in (((112, 112), False), ((112, 112), True), ((37, 53), False)):
+    sizes = (((112, 112), False), ((112, 112), True), ((37, 53), False), ((37, 53), True), ((120, 160), True))
+    for size, coverage in (*sizes, ((60, 80), False)):  # cv2's fast path: whole-number scales
         fast = render_shrunk(specs, params, size, frames, coverage)
         for want, masks in zip(full, fast, strict=True):
             assert np.array_equal(masks, resize_masks(want, size, coverage))
