@@ -11,6 +11,11 @@ the naive streaming path: draw each mask at 480x640 with render.render_masks and
 112x112. Timing starts when the first batch arrives, so worker start-up is left out; the first
 batch is not counted. grain's rows count from the start instead, all batches: in-process, grain
 computes batches ahead in a pool of threads, so they are ready long before they are asked for.
+
+CPU-seconds are those of the whole process tree (this process and its worker processes, read
+with psutil while they run), over the same span as the wall time: the steady rate that says how
+many cores feed an accelerator. The start-up column is the CPU-seconds spent before the first
+batch (spawning and importing in each worker).
 """
 
 from __future__ import annotations
@@ -18,11 +23,12 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import os
-import resource
 import tempfile
 import time
 from collections.abc import Iterable
 from pathlib import Path
+
+import psutil
 
 from odms_data.loaders import Transform, store_batches, stream_batches
 from odms_data.loaders.sources import collate
@@ -35,27 +41,34 @@ PARAMS = GeneratorParams(n_obs=10)
 
 
 def cpu_seconds() -> float:
-    """CPU time of this process and its finished children (worker processes)."""
-    me, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
-    return me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
+    """CPU time of this process, its finished children and its running descendants."""
+    me = psutil.Process()
+    total = sum(me.cpu_times()[:4])  # user, system, and those of the children it has reaped
+    for child in me.children(recursive=True):
+        try:
+            times = child.cpu_times()
+        except psutil.NoSuchProcess:
+            continue
+        total += times.user + times.system
+    return total
 
 
-def rate(batches: Iterable, batch_size: int, from_start: bool = False) -> tuple[float, float]:
-    """Examples per wall second after the first batch (`from_start`: from the start, all batches),
-    and per CPU second over the whole run (start-up included): on a shared machine the second says
-    what the cores could do."""
+def rate(batches: Iterable, batch_size: int, from_start: bool = False) -> tuple[float, float, float]:
+    """Examples per wall second and per CPU-second after the first batch (`from_start`: from the
+    start, all batches), and the CPU-seconds spent before the first batch."""
     c0 = cpu_seconds()
     t0 = time.perf_counter()
     it = iter(batches)
     next(it)
     count = batch_size if from_start else 0
+    c1 = cpu_seconds()
     if not from_start:
         t0 = time.perf_counter()
     for _ in it:
         count += batch_size
-    wall = time.perf_counter() - t0
-    del it  # ends the workers, so their CPU time is counted
-    return count / wall, (count + batch_size) / (cpu_seconds() - c0)
+    wall, cpu = time.perf_counter() - t0, cpu_seconds() - (c0 if from_start else c1)
+    del it  # ends the workers
+    return count / wall, count / cpu, c1 - c0
 
 
 def naive(batch_size: int, n_batches: int):
@@ -96,14 +109,16 @@ def main() -> None:
     print(f"{len(os.sched_getaffinity(0))} CPUs available, batch size {args.batch_size}, n = {PARAMS.n_obs}")
     B = args.batch_size
     nb = max(2, args.examples // B)
-    results: list[tuple[str, float, float]] = []
-    print(f"{'':<48} {'examples/s':>10} {'vs baseline':>11} {'examples/CPU-s':>15} {'vs baseline':>11}")
+    results: list[tuple[str, float, float, float]] = []
+    print(f"{'':<48} {'examples/s':>10} {'vs baseline':>11} {'examples/CPU-s':>15} {'vs baseline':>11} "
+          f"{'start-up CPU-s':>14}")
 
-    def record(name: str, value: tuple[float, float]) -> None:
+    def record(name: str, value: tuple[float, float, float]) -> None:
         results.append((name, *value))
-        _, base, base_cpu = results[0]
-        wall, cpu = value
-        print(f"{name:<48} {wall:10.0f} {wall / base:10.1f}x {cpu:15.0f} {cpu / base_cpu:10.1f}x", flush=True)
+        _, base, base_cpu, _ = results[0]
+        wall, cpu, start = value
+        line = f"{name:<48} {wall:10.0f} {wall / base:10.1f}x {cpu:15.0f} {cpu / base_cpu:10.1f}x"
+        print(f"{line} {start:14.2f}", flush=True)
 
     record("baseline: 480x640 drawn, shrunk to 112x112", rate(naive(B, max(2, nb // 4)), B))
     for size, direct, rounded, label in (((112, 112), False, False, "112x112 coverage"),

@@ -78,14 +78,17 @@ class StoreExamples:
         except InputError as e:
             raise InputError(f"{self.path}: example {self.store.example_ids[i]}: {e}") from None
 
-    def _inputs(self, i: int, chosen: np.ndarray, packed: np.ndarray) -> dict[str, np.ndarray]:
-        """Example i's inputs from the packed masks of its frames `chosen`."""
+    def _inputs(
+        self, i: int, chosen: np.ndarray, packed: np.ndarray, masks: np.ndarray | None = None
+    ) -> dict[str, np.ndarray]:
+        """Example i's inputs from the packed masks of its frames `chosen`; shrunk masks are
+        written into `masks` when given."""
         s, t = self.store, self.transform
-        if t.size is not None:  # unpack and shrink only the stored boxes: the same pixels
-            masks = shrink_packed(packed, s.width, s.bbox[chosen], t.size, not t.rounded)
-        else:
-            masks = unpack(packed, s.width)
-        out = t(masks, s.z[chosen], float(s.d1[i]))
+        if t.size is None:
+            out = t(unpack(packed, s.width), s.z[chosen], float(s.d1[i]))
+        else:  # read and shrink only the stored boxes: the same pixels
+            shrunk = shrink_packed(packed, s.width, s.bbox[chosen], t.size, not t.rounded, masks)
+            out = {"masks": shrunk, **t.vectors(s.z[chosen], float(s.d1[i]), t.size)}
         out["index"] = np.int64(i)
         return out
 
@@ -94,19 +97,35 @@ class StoreExamples:
         return self._inputs(i, chosen, self.store.read_packed_frames(chosen))
 
     def batch(self, indices: Indices, empty: Empty = np.empty) -> dict[str, np.ndarray]:
-        return collate(self.examples(indices), empty)
+        """Examples by row, stacked into arrays made by `empty`; shrunk masks are written into
+        the batch's array directly."""
+        t = self.transform
+        read = self._read(indices)
+        if t.size is None or len({len(c) for _, c, _ in read}) > 1:  # collate says what differs
+            return collate([self._inputs(*r) for r in read], empty)
+        dtype = np.dtype(np.uint8 if t.rounded else np.float32)
+        masks = empty((len(read), len(read[0][1]), *t.size), dtype)
+        rest = [self._inputs(*r, masks=m) for r, m in zip(read, masks, strict=True)]
+        for e in rest:
+            del e["masks"]
+        return {"masks": masks, **collate(rest, empty)}
 
     def examples(self, indices: Indices) -> list[dict[str, np.ndarray]]:
-        """Examples by row; the packed masks of nearby rows are read in one slice."""
+        """Examples by row."""
+        return [self._inputs(*r) for r in self._read(indices)]
+
+    def _read(self, indices: Indices) -> list[tuple[int, np.ndarray, np.ndarray]]:
+        """(row, chosen frames, their packed masks) of each row; the packed masks of nearby rows
+        are read in one slice."""
         rows = [int(i) for i in indices]
         chosen = [self._chosen(i) for i in rows]
         flat = np.concatenate(chosen)
         lo, hi = int(flat.min()), int(flat.max()) + 1
         pairs = zip(rows, chosen, strict=True)
         if hi - lo > 4 * len(flat):
-            return [self._inputs(i, c, self.store.read_packed_frames(c)) for i, c in pairs]
+            return [(i, c, self.store.read_packed_frames(c)) for i, c in pairs]
         packed = self.store.read_packed(lo, hi)
-        return [self._inputs(i, c, packed[c - lo]) for i, c in pairs]
+        return [(i, c, packed[c - lo]) for i, c in pairs]
 
 
 class GeneratedExamples:

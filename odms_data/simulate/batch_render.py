@@ -29,7 +29,7 @@ from .object_model import ExampleSpec
 from .params import GeneratorParams
 from .raster import draw_silhouettes
 from .render import CROSS, render_frame
-from .shrink import resize_masks, shrink_canvases, shrink_tables
+from .shrink import computes_like_cv2, resize_masks, shrink_canvases, shrink_tables
 
 cv2.setNumThreads(1)
 
@@ -202,7 +202,7 @@ def render_shrunk(
     h, w = size
     frames = _frames(specs, frames)
     dtype = np.float32 if coverage else np.uint8
-    if h > H0 or w > W0 or (H0 % h == 0 and W0 % w == 0 and not coverage):
+    if not computes_like_cv2((H0, W0), size, coverage):
         full = render_masks(specs, params, None, frames)
         shrunk = np.stack([resize_masks(m, size, coverage) for m in full])
         if out is None:

@@ -24,7 +24,7 @@ from odms_data.simulate.object_model import sample_example
 from odms_data.simulate.params import GeneratorParams, preset
 from odms_data.simulate.render import render_frame
 from odms_data.simulate.render import render_masks as generator_render
-from odms_data.simulate.shrink import shrink_boxes, shrink_packed
+from odms_data.simulate.shrink import shrink_packed
 from odms_data.store.masks import pack, stats_of
 
 
@@ -157,12 +157,18 @@ def test_shrunk_render_matches_full_size_shrunk(params):
         render_masks([], params)
 
 
-def test_shrink_boxes_matches_resize():
+def test_shrink_packed_matches_resize():
     params = preset("perturb")
     masks = np.concatenate([generator_render(sample_example(params, 13, i), params) for i in range(20)])
     boxes = stats_of(masks).bbox
     packed = pack(masks)
-    for size, coverage in (((112, 112), False), ((112, 112), True), ((37, 53), False), ((240, 160), True)):
+    sizes = ((112, 112), False), ((112, 112), True), ((37, 53), False), ((240, 160), True), ((120, 160), True)
+    for size, coverage in (*sizes, ((120, 160), False)):
         want = resize_masks(masks, size, coverage)
-        assert np.array_equal(shrink_boxes(masks, boxes, size, coverage), want)
         assert np.array_equal(shrink_packed(packed, masks.shape[2], boxes, size, coverage), want)
+    out = np.ones((len(masks), 112, 112), np.float32)
+    shrink_packed(packed, masks.shape[2], boxes, (112, 112), True, out)
+    assert np.array_equal(out, resize_masks(masks, (112, 112), True))
+    boxes[3] = [600, 10, 641, 20]
+    with pytest.raises(InputError, match=r"frame 3: box \(600, 10, 641, 20\) is not inside its 640x480"):
+        shrink_packed(packed, masks.shape[2], boxes, (112, 112), True)

@@ -1,5 +1,6 @@
-"""shrink.shrink_canvases against cv2.resize with INTER_AREA: the same float32 values, bit for bit,
-on random canvases anywhere in (or partly out of) the frame, at scales cv2 treats each way."""
+"""The shrink kernels against cv2.resize with INTER_AREA: the same float32 values, bit for bit, on
+random canvases anywhere in (or partly out of) the frame, at scales cv2 treats each way; and the
+same frames read from their packed bits (shrink_packed)."""
 
 from __future__ import annotations
 
@@ -7,7 +8,8 @@ import cv2
 import numpy as np
 import pytest
 
-from odms_data.simulate.shrink import shrink_canvases, shrink_tables
+from odms_data.simulate.shrink import shrink_canvases, shrink_packed, shrink_tables
+from odms_data.store.masks import pack
 
 FULL = (480, 640)
 
@@ -18,7 +20,7 @@ CASES = [(s, False) for s in SIZES] + [(s, True) for s in SIZES if s not in WHOL
 
 
 @pytest.mark.parametrize(("size", "rounded"), CASES)
-def test_canvases_shrink_as_cv2_shrinks_the_whole_frame(size, rounded):
+def test_kernels_shrink_as_cv2_shrinks_the_whole_frame(size, rounded):
     rng = np.random.default_rng(sum(size))
     F, (H, W) = 24, FULL
     extent = rng.integers(5, 300, (F, 2))
@@ -29,11 +31,13 @@ def test_canvases_shrink_as_cv2_shrinks_the_whole_frame(size, rounded):
         canvases[tops[f] : tops[f + 1], :w] = rng.random((h, w)) < rng.random()
     out = np.zeros((F, *size), np.uint8 if rounded else np.float32)
     shrink_canvases(canvases, tops[:-1], lo, lo + extent, out, rounded, *shrink_tables(FULL, size))
+    frames = np.zeros((F, H + 600, W + 600), np.uint8)  # room for each canvas beyond the frame
     for f, ((x0, y0), (w, h)) in enumerate(zip(lo, extent, strict=True)):
-        frame = np.zeros((H + 600, W + 600), np.uint8)  # room for the canvas beyond the frame
-        frame[y0 + 300 : y0 + 300 + h, x0 + 300 : x0 + 300 + w] = canvases[tops[f] : tops[f + 1], :w]
-        frame = frame[300 : 300 + H, 300 : 300 + W]
-        frame = frame if rounded else frame.astype(np.float32)
-        want = cv2.resize(frame, size[::-1], interpolation=cv2.INTER_AREA)
-        assert np.array_equal(out[f], want), f
+        frames[f, y0 + 300 : y0 + 300 + h, x0 + 300 : x0 + 300 + w] = canvases[tops[f] : tops[f + 1], :w]
+    frames = frames[:, 300 : 300 + H, 300 : 300 + W]
+    values = frames if rounded else frames.astype(np.float32)
+    want = np.stack([cv2.resize(m, size[::-1], interpolation=cv2.INTER_AREA) for m in values])
+    assert np.array_equal(out, want)
     assert out.any() and (out < 1).any()
+    boxes = np.concatenate([np.maximum(lo, 0), np.minimum(lo + extent, [W, H])], axis=1)
+    assert np.array_equal(shrink_packed(pack(frames), W, boxes, size, not rounded), want)
