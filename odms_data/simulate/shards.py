@@ -13,6 +13,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 
 from ..store.digest import example_digest, padded_frame_digest
@@ -59,8 +60,8 @@ class ShardResult:
 def run_shard(task: ShardTask) -> ShardResult:
     """Generate and write one shard; pure in (params, seed, indices) up to the store path.
 
-    Allocation-light: each example is drawn into this thread's reused frame and packed-example
-    buffers (zeroed again where drawn), compressed as soon as it is packed, and each frame's
+    Allocation-light: each example's frames are packed into this thread's reused packed-example
+    buffer (zeroed again where drawn), compressed as soon as it is packed, and each frame's
     digest hashes only its drawn rows and the zero rows below them (`padded_frame_digest`).
     """
     p = task.params
@@ -71,20 +72,23 @@ def run_shard(task: ShardTask) -> ShardResult:
     digests = []
     ids = example_ids(task.split, task.count, task.start, task.stop)
     chunks = ShardChunks(task.fmt, n)
-    with _buffers(n, H, W) as (frame, packed):
+    measured = np.empty(5, np.int64)
+    with _buffer(n, H, W) as packed:
         for e, spec, boxes in _drawn(p, task.seed, task.start, task.stop):
             z[e * n : (e + 1) * n] = spec.z
             drawn, frame_digests = [], []
             for i, box in enumerate(boxes):  # render.render_frame's pixels
-                x0, y0, x1, y1 = 0, 0, 0, 0
+                y0 = y1 = 0
                 if box is not None:
                     pixels, x0, y0, one_region = box
-                    y1, x1 = y0 + pixels.shape[0], x0 + pixels.shape[1]
-                    stats.set(e * n + i, pixels, x0, y0, one_region)
-                    frame[y0:y1, x0:x1] = pixels
-                    b0, b1 = x0 // 8, -(-x1 // 8)  # the bytes the box's columns fall in
-                    packed[i, y0:y1, b0:b1] = np.packbits(frame[y0:y1, 8 * b0 : 8 * b1], axis=-1)
-                    frame[y0:y1, x0:x1] = 0
+                    y1 = y0 + pixels.shape[0]
+                    _pack_box(pixels, x0, y0, packed[i], measured)
+                    f = e * n + i
+                    if one_region or measured[0] == 0:
+                        stats.area[f] = stats.largest_area[f] = measured[0]
+                        stats.bbox[f] = measured[1:]
+                    else:
+                        stats.set(f, pixels, x0, y0)
                     drawn.append(packed[i, y0:y1])
                 frame_digests.append(padded_frame_digest(packed[i, y0:y1], y0, H, spec.z[i], spec.z[i]))
             chunks.add(packed)
@@ -95,6 +99,28 @@ def run_shard(task: ShardTask) -> ShardResult:
     result = ShardResult(task.start, task.stop, z, stats, digests)
     result.deflated_chunks = chunks.write(task.path, task.start * n)
     return result
+
+
+@numba.njit(cache=True, nogil=True)
+def _pack_box(pixels, x0, y0, packed, measured):
+    """OR the 0/1 `pixels`, a box at (x0, y0) of a frame, into the frame's packed rows (most
+    significant bit first); measured = area, then the object's x0, y0, x1, y1 (zeros if none)."""
+    area, lx, ly, hx, hy = 0, pixels.shape[1], pixels.shape[0], -1, -1
+    for r in range(pixels.shape[0]):
+        row, out, first, last = pixels[r], packed[y0 + r], -1, -1
+        for c in range(pixels.shape[1]):
+            if row[c]:
+                x = x0 + c
+                out[x >> 3] |= 0x80 >> (x & 7)
+                area += 1
+                first, last = c if first < 0 else first, c
+        if first >= 0:
+            lx, hx, ly, hy = min(lx, first), max(hx, last), min(ly, r), r
+    measured[0] = area
+    if area:
+        measured[1], measured[2], measured[3], measured[4] = x0 + lx, y0 + ly, x0 + hx + 1, y0 + hy + 1
+    else:
+        measured[1:] = 0
 
 
 def _drawn(
@@ -113,14 +139,14 @@ _reused = threading.local()  # per thread: a Dask worker may run several tasks a
 
 
 @contextmanager
-def _buffers(n: int, H: int, W: int) -> Iterator[tuple[np.ndarray, np.ndarray]]:
-    """This thread's zeroed (H, W) frame and (n, H, ceil(W/8)) packed-example buffers, made once
-    per shape and reused: with many large temporaries, a process whose allocator returns freed
-    memory eagerly (a Dask nanny sets MALLOC_TRIM_THRESHOLD_) spends its time on page faults.
-    The caller leaves them zeroed; after an error they are dropped."""
+def _buffer(n: int, H: int, W: int) -> Iterator[np.ndarray]:
+    """This thread's zeroed (n, H, ceil(W/8)) packed-example buffer, made once per shape and
+    reused: with many large temporaries, a process whose allocator returns freed memory eagerly
+    (a Dask nanny sets MALLOC_TRIM_THRESHOLD_) spends its time on page faults. The caller leaves
+    it zeroed; after an error it is dropped."""
     key = (n, H, W)
     if getattr(_reused, "key", None) != key:
-        _reused.buffers = np.zeros((H, W), np.uint8), np.zeros((n, H, packed_width(W)), np.uint8)
-    buffers, _reused.key = _reused.buffers, None  # taken: a failure below leaves them dropped
-    yield buffers
+        _reused.buffer = np.zeros((n, H, packed_width(W)), np.uint8)
+    buffer, _reused.key = _reused.buffer, None  # taken: a failure below leaves it dropped
+    yield buffer
     _reused.key = key
