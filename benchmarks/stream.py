@@ -9,8 +9,9 @@ rounded (Transform(rounded=True)); "direct" draws uint8 masks straight at 112x11
 (GeneratedExamples(direct=True)). The baseline, measured in the same run, is
 the naive streaming path: draw each mask at 480x640 with render.render_masks and shrink it to
 112x112. Timing starts when the first batch arrives, so worker start-up is left out; the first
-batch is not counted. grain's rows count from the start instead, all batches: in-process, grain
-computes batches ahead in a pool of threads, so they are ready long before they are asked for.
+batch is not counted. grain's rows count from the start instead, all batches: grain computes
+batches ahead in its threads, so they are ready before they are asked for. grain reads with
+`threads` threads and a prefetch buffer of as many batches, in-process or in mp_prefetch workers.
 
 CPU-seconds are those of the whole process tree (this process and its worker processes, read
 with psutil while they run), over the same span as the wall time: the steady rate that says how
@@ -82,13 +83,16 @@ def naive(batch_size: int, n_batches: int):
         yield collate(out)
 
 
-def grain_stream(batch_size: int, n_batches: int, workers: int):
+def grain_stream(batch_size: int, n_batches: int, threads: int, workers: int):
+    """The stream through grain: `threads` drawing batches (a small prefetch buffer), in
+    `workers` mp_prefetch processes or in this one."""
     import grain
 
     from odms_data.loaders.grain_loader import stream_dataset
 
-    ds = stream_dataset(batch_size, n_batches, params=PARAMS).to_iter_dataset()
-    return ds.mp_prefetch(grain.MultiprocessingOptions(num_workers=workers))
+    options = grain.ReadOptions(num_threads=threads, prefetch_buffer_size=threads)
+    ds = stream_dataset(batch_size, n_batches, params=PARAMS).to_iter_dataset(options)
+    return ds.mp_prefetch(grain.MultiprocessingOptions(num_workers=workers)) if workers else ds
 
 
 def grain_store(store: str, batch_size: int, workers: int):
@@ -135,9 +139,9 @@ def main() -> None:
     has_tf = importlib.util.find_spec("tensorflow") is not None
     has_grain = importlib.util.find_spec("grain") is not None
     if has_grain:
-        for workers in (0, 2):
-            record(f"grain stream 112x112 coverage, workers={workers}",
-                   rate(grain_stream(B, nb, workers), B, True))
+        for threads, workers in ((1, 0), (2, 0), (1, 2)):
+            record(f"grain stream 112x112 coverage, threads={threads}, workers={workers}",
+                   rate(grain_stream(B, nb, threads, workers), B, True))
     if has_torch:
         from torch.utils.data import DataLoader
 

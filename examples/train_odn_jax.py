@@ -66,7 +66,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--out", default="predictions.csv", help="predictions CSV (split,example_id,d1)")
     ap.add_argument("--steps", type=int, default=300)
     ap.add_argument("--batch-size", type=int, default=64)
-    ap.add_argument("--workers", type=int, default=2, help="grain prefetch processes")
+    ap.add_argument("--threads", type=int, default=2, help="grain threads drawing batches")
     ap.add_argument("--seed", type=int, default=0, help="generator seed (the splits use 2020000x)")
     ap.add_argument("--n-obs", type=int, default=10)
     ap.add_argument("--lr", type=float, default=2e-3)
@@ -86,8 +86,9 @@ def main(argv: list[str] | None = None) -> None:
         return optax.apply_updates(params, updates), state, value
 
     keys = ("masks", "radial", "zbar", "scale")
-    prefetch = grain.MultiprocessingOptions(num_workers=args.workers)
-    batches = iter(train.to_iter_dataset().mp_prefetch(prefetch))
+    # the drawing releases the GIL: threads draw batches in parallel, a few batches ahead
+    threads = grain.ReadOptions(num_threads=args.threads, prefetch_buffer_size=args.threads)
+    batches = iter(train.to_iter_dataset(threads))
     t0 = time.perf_counter()
     for i, batch in enumerate(batches, 1):
         params, state, value = step(params, state, {k: jax.device_put(batch[k]) for k in keys})

@@ -6,15 +6,21 @@
     val = grain.MapDataset.source(StoreSource("sim-val.zarr")).batch(512)
     train = (grain.MapDataset.source(StoreSource("train.zarr")).seed(1).shuffle().repeat(10).batch(512)
              .to_iter_dataset().mp_prefetch(grain.MultiprocessingOptions(num_workers=2)))
-    stream = stream_dataset(512, 5000, epochs=10, seed=1).to_iter_dataset().mp_prefetch(...)
+    threads = grain.ReadOptions(num_threads=2, prefetch_buffer_size=2)
+    stream = stream_dataset(512, 5000, epochs=10, seed=1).to_iter_dataset(threads)
     for batch in stream: ...  # batch["masks"]: (512, 10, 112, 112) float32, ready for jax.device_put
 
 An element of `StoreSource` is one example's network inputs (transforms.py), by store row. An
 element of `stream_dataset` is a whole batch, drawn together (as the other loaders draw it):
 element k holds generator indices k * batch_size + [0, batch_size), i.e. batch b of epoch e is
 element e * batches_per_epoch + b, the same batch as PyTorch's StreamDataset and the NumPy loader
-give. grain's mp_prefetch keeps the order, so the batches do not depend on the number of workers,
+give. grain keeps the order, so the batches do not depend on the number of threads or workers,
 and its iterators' get_state/set_state resume a run exactly.
+
+Draw the stream with grain's threads, as above: the drawing releases the GIL, so threads draw
+batches in parallel and hand them over without the copy into shared memory that mp_prefetch makes
+of every batch. Give `to_iter_dataset` a small prefetch buffer: by default grain reads up to 500
+elements ahead, and here an element is a whole batch (128 MB for 512 examples).
 """
 
 from __future__ import annotations

@@ -18,7 +18,7 @@ SCRIPT = Path(__file__).resolve().parents[2] / "examples" / "train_odn_jax.py"
 def test_train_odn_jax_smoke(tmp_path):
     store = make_store(tmp_path, "zarr")
     out = tmp_path / "predictions.csv"
-    args = ["--steps", "3", "--batch-size", "4", "--workers", "0", "--store", str(store), "--out", str(out)]
+    args = ["--steps", "3", "--batch-size", "4", "--threads", "1", "--store", str(store), "--out", str(out)]
     run = subprocess.run([sys.executable, str(SCRIPT), *args], capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr
     assert "step 3/3" in run.stdout
