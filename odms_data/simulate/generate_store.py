@@ -26,7 +26,7 @@ from .shards import SOURCE, ShardResult, ShardTask, example_ids, run_shard
 
 Progress = Callable[[int], None]
 SHARD_BYTES = 2**28  # the most packed mask bytes one shard task holds
-EXAMPLE_S, MEGAPIXEL_S = 1e-4, 2.5e-4  # generation's CPU-seconds per example and per megapixel of frames
+EXAMPLE_S, MEGAPIXEL_S = 1e-4, 1.9e-4  # generation's CPU-seconds per example and per megapixel of frames
 
 
 def work_seconds(count: int, params: GeneratorParams) -> float:
