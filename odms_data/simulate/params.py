@@ -9,7 +9,7 @@ from typing import Any
 
 from ..errors import InputError
 
-DEFAULT_EXAMPLES_PER_SHARD = 128  # examples per shard task of a generated store
+DEFAULT_EXAMPLES_PER_SHARD = 512  # examples per shard task of a generated store
 # Recorded in every generated store (attribute generator.version; absent before version 2). 2:
 # silhouettes without holes, every pixel the contour passes through (raster.py); the released
 # generator's point spacing rule. 1: cv2.fillPoly of the contour, even-odd; Euclidean spacing.
