@@ -21,10 +21,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import cv2
-import numba
 import numpy as np
 
 from ..errors import InputError
+from .kernel import kernel
 from .object_model import ExampleSpec
 from .params import GeneratorParams
 from .raster import draw_silhouettes
@@ -76,7 +76,7 @@ def frame_geometry(
     return FrameGeometry(poly, starts, lo, hi, k, perturb >= 0)
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def _placed(contours, lengths, n, scale, half, cx, cy, sx, sy, k):
     """Each example's contour placed in each of its n frames f (example-major): render_frame's
     ((c * scale + centre) - half) * s per axis, then made relative to the canvas corner lo;

@@ -20,13 +20,14 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
+
+from .kernel import kernel
 
 OUTSIDE = 2  # a pixel between a row's ends found to lie outside, while filling
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def _mark(img, poly, s, e, cx, cy, left, right):
     """Mark the pixels closed polygon poly[s:e] passes through, its canvas corner at column cx,
     row cy of img; left/right[y]: the leftmost and rightmost marked column of canvas row y."""
@@ -54,7 +55,7 @@ def _mark(img, poly, s, e, cx, cy, left, right):
                 line += 1.0
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def _fill(img, cx, cy, left, right, stack):
     """Fill what the marked contour encloses (module docstring); stack: room for every pixel."""
     h, n = len(left), 0
@@ -88,7 +89,7 @@ def _fill(img, cx, cy, left, right, stack):
             row[x] = row[x] != OUTSIDE
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def draw_silhouettes(img, poly, starts, frames, corners):
     """Draw the silhouette of polygon f = frames[t] onto the uint8 image img (zero where drawn),
     its canvas corner at corners[t] (x, y). Polygon f is rows starts[f] .. starts[f + 1] - 1 of

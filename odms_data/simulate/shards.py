@@ -13,13 +13,13 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
-import numba
 import numpy as np
 
 from ..store.digest import example_digest, padded_frame_digest
 from ..store.masks import FrameStats, packed_width
 from ..store.shard_writer import ShardChunks
 from .batch_render import render_boxes
+from .kernel import kernel
 from .object_model import ExampleSpec, sample_example
 from .params import GeneratorParams
 
@@ -101,7 +101,7 @@ def run_shard(task: ShardTask) -> ShardResult:
     return result
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def _pack_box(pixels, x0, y0, packed, measured):
     """OR the 0/1 `pixels`, a box at (x0, y0) of a frame, into the frame's packed rows (most
     significant bit first); measured = area, then the object's x0, y0, x1, y1 (zeros if none)."""

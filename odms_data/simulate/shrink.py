@@ -19,11 +19,11 @@ import math
 from functools import lru_cache
 
 import cv2
-import numba
 import numpy as np
 
 from ..errors import InputError
 from ..store.masks import unpack
+from .kernel import kernel
 
 cv2.setNumThreads(1)
 
@@ -83,7 +83,7 @@ def shrink_tables(full: tuple[int, int], size: tuple[int, int]) -> tuple:
     return (*area_weights(H, h, whole), *area_weights(W, w, whole), factor)
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def _add_row(row, sy, x0, acc, buf, dx0, dx1, ydest, yweight, xdest, xweight):
     """Add source row sy, whose pixels from column x0 are `row`, to the output rows it falls in."""
     buf[dx0:dx1] = 0
@@ -102,7 +102,7 @@ def _add_row(row, sy, x0, acc, buf, dx0, dx1, ydest, yweight, xdest, xweight):
                     acc[dy, dx] += beta * buf[dx]
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def _region(x0, y0, x1, y1, ydest, xdest):
     """The output rows dy0 .. dy1 - 1 and columns dx0 .. dx1 - 1 a source region falls in."""
     dx0, dx1 = xdest[x0, 0], max(xdest[x1 - 1, 0], xdest[x1 - 1, 1]) + 1
@@ -110,7 +110,7 @@ def _region(x0, y0, x1, y1, ydest, xdest):
     return dx0, dx1, dy0, dy1
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def _write(out, acc, dx0, dx1, dy0, dy1, factor, rounded):
     for dy in range(dy0, dy1):
         for dx in range(dx0, dx1):
@@ -121,7 +121,7 @@ def _write(out, acc, dx0, dx1, dy0, dy1, factor, rounded):
                 out[dy, dx] = v
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def shrink_canvases(canvases, tops, lo, hi, out, rounded, ydest, yweight, xdest, xweight, factor):
     """out[f] (zeros; float32 coverage, or with `rounded` the uint8 coverage rounded to nearest,
     ties to even, as cv2 rounds outside its fast path) = cv2 INTER_AREA of a full frame that is
@@ -142,7 +142,7 @@ def shrink_canvases(canvases, tops, lo, hi, out, rounded, ydest, yweight, xdest,
         _write(out[f], acc, dx0, dx1, dy0, dy1, factor, rounded)
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def _shrink_packed(packed, boxes, out, rounded, ydest, yweight, xdest, xweight, factor):
     """shrink_canvases for packed frames (k, H, ceil(W / 8), big-endian bits) whose objects lie
     inside boxes (k, 4: x0, y0, x1, y1, half-open)."""

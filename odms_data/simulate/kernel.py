@@ -1,0 +1,33 @@
+"""How the drawing kernels are compiled: Numba, in nopython mode, releasing the GIL, the machine
+code cached in the user's cache folder (`$XDG_CACHE_HOME/odms-data/numba`, by default
+`~/.cache/odms-data/numba`) unless NUMBA_CACHE_DIR names one.
+
+Not in the package's own `__pycache__`, Numba's default: pip does not know of those files, so
+they would outlive an uninstall, and the folder left behind would shadow a later (editable)
+install of the package as an empty namespace package. Where the folder cannot be written,
+Numba falls back to its other places.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from typing import Any
+
+import numba
+
+
+def cache_dir() -> str:
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(base, "odms-data", "numba")
+
+
+def kernel(function: Callable[..., Any]) -> Any:
+    """`numba.njit(cache=True, nogil=True)(function)`, cached as the module says."""
+    config: Any = numba.config  # its settings are made at run time, from NUMBA_* variables
+    chosen = config.CACHE_DIR
+    config.CACHE_DIR = chosen or cache_dir()  # read when the function's cache is set up
+    try:
+        return numba.njit(cache=True, nogil=True)(function)
+    finally:
+        config.CACHE_DIR = chosen
