@@ -96,9 +96,14 @@ def draw_silhouettes(img, poly, starts, frames, corners):
     poly (vertices x, y relative to its canvas corner, at least one pixel from the canvas' top and
     left); its pixels must lie inside img, with an empty pixel beyond them below and right."""
     room = 0
-    for f in frames:
-        p = poly[starts[f] : starts[f + 1]]
-        room = max(room, int(p[:, 0].max() + 2) * int(p[:, 1].max() + 2))
+    for t in range(len(frames)):  # check every polygon first: the kernel writes unchecked
+        p = poly[starts[frames[t]] : starts[frames[t] + 1]]
+        cx, cy = corners[t, 0], corners[t, 1]
+        x1, y1 = p[:, 0].max(), p[:, 1].max()
+        inside = p.min() >= 1 and x1 < img.shape[1] - 1 - cx and y1 < img.shape[0] - 1 - cy
+        if not (inside and cx >= 0 and cy >= 0):  # NaN compares false: refused too
+            raise ValueError("a polygon leaves its canvas or the image")
+        room = max(room, (int(x1) + 2) * (int(y1) + 2))
     stack = np.empty((room, 2), np.int64)
     for t in range(len(frames)):
         s, e = starts[frames[t]], starts[frames[t] + 1]
@@ -106,8 +111,6 @@ def draw_silhouettes(img, poly, starts, frames, corners):
         cx, cy = corners[t, 0], corners[t, 1]
         h = int(math.floor(p[:, 1].max())) + 1
         w = int(math.floor(p[:, 0].max())) + 1
-        if p.min() < 1 or cx < 0 or cy < 0 or cy + h >= img.shape[0] or cx + w >= img.shape[1]:
-            raise ValueError("a polygon leaves its canvas or the image")
         left, right = np.full(h, w, np.int64), np.full(h, -1, np.int64)
         _mark(img, poly, s, e, cx, cy, left, right)
         _fill(img, cx, cy, left, right, stack)

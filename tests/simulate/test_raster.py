@@ -72,7 +72,8 @@ def test_several_silhouettes_are_drawn_each_at_its_corner():
 
 
 def test_a_polygon_that_leaves_its_canvas_is_refused():
-    for poly in ([[0.5, 3], [8, 3], [4, 9]], [[2, 3], [8, 3], [4, 15.5]]):
+    for poly in ([[0.5, 3], [8, 3], [4, 9]], [[2, 3], [8, 3], [4, 15.5]], [[2, 3], [8, np.nan], [4, 9]],
+                 [[2, 3], [np.inf, 3], [4, 9]]):
         with pytest.raises(ValueError, match="leaves its canvas"):
             draw_silhouette(np.zeros((16, 16), np.uint8), np.array(poly, float))
 
