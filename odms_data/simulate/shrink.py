@@ -1,9 +1,9 @@
 """Shrinking binary masks with cv2 INTER_AREA, and doing it for the object's pixels alone.
 
-`resize_masks` calls cv2. The kernels compute cv2's result themselves, in cv2's own float32
-operations and order, from the pixels of each object's region only: `shrink_canvases` for
-generated masks (batch_render.render_shrunk), `shrink_packed` for stored ones, reading their
-packed bits. tests/simulate/test_shrink.py checks both against cv2.resize bit for bit.
+`resize_masks` calls cv2. `shrink_canvases` computes cv2's result itself, in cv2's own float32
+operations and order, from the pixels of each object's region only: for generated masks
+(batch_render.render_shrunk), and for stored ones (`shrink_packed`, each stored box's bits
+unpacked first). tests/simulate/test_shrink.py checks both against cv2.resize bit for bit.
 
 When the scale is not a whole number on both axes, cv2 sums each source row's pixels times their
 column weights into each output column, then each output pixel is the sum, in row order, of its
@@ -84,44 +84,6 @@ def shrink_tables(full: tuple[int, int], size: tuple[int, int]) -> tuple:
 
 
 @kernel
-def _add_row(row, sy, x0, acc, buf, dx0, dx1, ydest, yweight, xdest, xweight):
-    """Add source row sy, whose pixels from column x0 are `row`, to the output rows it falls in."""
-    buf[dx0:dx1] = 0
-    drawn = False
-    for i in range(len(row)):
-        if row[i]:  # cv2 adds pixel * weight; a zero pixel adds nothing
-            drawn = True
-            for j in range(2):
-                if xdest[x0 + i, j] >= 0:
-                    buf[xdest[x0 + i, j]] += xweight[x0 + i, j]
-    if drawn:
-        for j in range(2):
-            dy, beta = ydest[sy, j], yweight[sy, j]
-            if dy >= 0:
-                for dx in range(dx0, dx1):
-                    acc[dy, dx] += beta * buf[dx]
-
-
-@kernel
-def _region(x0, y0, x1, y1, ydest, xdest):
-    """The output rows dy0 .. dy1 - 1 and columns dx0 .. dx1 - 1 a source region falls in."""
-    dx0, dx1 = xdest[x0, 0], max(xdest[x1 - 1, 0], xdest[x1 - 1, 1]) + 1
-    dy0, dy1 = ydest[y0, 0], max(ydest[y1 - 1, 0], ydest[y1 - 1, 1]) + 1
-    return dx0, dx1, dy0, dy1
-
-
-@kernel
-def _write(out, acc, dx0, dx1, dy0, dy1, factor, rounded):
-    for dy in range(dy0, dy1):
-        for dx in range(dx0, dx1):
-            v = acc[dy, dx] * factor
-            if rounded:
-                out[dy, dx] = np.rint(v)
-            else:
-                out[dy, dx] = v
-
-
-@kernel
 def shrink_canvases(canvases, tops, lo, hi, out, rounded, ydest, yweight, xdest, xweight, factor):
     """out[f] (zeros; float32 coverage, or with `rounded` the uint8 coverage rounded to nearest,
     ties to even, as cv2 rounds outside its fast path) = cv2 INTER_AREA of a full frame that is
@@ -134,36 +96,46 @@ def shrink_canvases(canvases, tops, lo, hi, out, rounded, ydest, yweight, xdest,
         cx0, cx1, cy0, cy1 = max(x0, 0), min(hi[f, 0], W0), max(y0, 0), min(hi[f, 1], H0)
         if cx0 >= cx1 or cy0 >= cy1:
             continue
-        dx0, dx1, dy0, dy1 = _region(cx0, cy0, cx1, cy1, ydest, xdest)
+        dx0, dx1 = xdest[cx0, 0], max(xdest[cx1 - 1, 0], xdest[cx1 - 1, 1]) + 1
+        dy0, dy1 = ydest[cy0, 0], max(ydest[cy1 - 1, 0], ydest[cy1 - 1, 1]) + 1
         acc[dy0:dy1, dx0:dx1] = 0
         for sy in range(cy0, cy1):
             row = canvases[tops[f] + sy - y0, cx0 - x0 : cx1 - x0]
-            _add_row(row, sy, cx0, acc, buf, dx0, dx1, ydest, yweight, xdest, xweight)
-        _write(out[f], acc, dx0, dx1, dy0, dy1, factor, rounded)
+            buf[dx0:dx1] = 0
+            drawn = False
+            for i in range(len(row)):
+                if row[i]:  # cv2 adds pixel * weight; a zero pixel adds nothing
+                    drawn = True
+                    for j in range(2):
+                        if xdest[cx0 + i, j] >= 0:
+                            buf[xdest[cx0 + i, j]] += xweight[cx0 + i, j]
+            if drawn:
+                for j in range(2):
+                    dy, beta = ydest[sy, j], yweight[sy, j]
+                    if dy >= 0:
+                        for dx in range(dx0, dx1):
+                            acc[dy, dx] += beta * buf[dx]
+        for dy in range(dy0, dy1):
+            for dx in range(dx0, dx1):
+                v = acc[dy, dx] * factor
+                if rounded:
+                    out[f, dy, dx] = np.rint(v)
+                else:
+                    out[f, dy, dx] = v
 
 
 @kernel
-def _shrink_packed(packed, boxes, out, rounded, ydest, yweight, xdest, xweight, factor):
-    """shrink_canvases for packed frames (k, H, ceil(W / 8), big-endian bits) whose objects lie
-    inside boxes (k, 4: x0, y0, x1, y1, half-open)."""
-    w = out.shape[2]
-    buf, acc = np.zeros(w, np.float32), np.zeros((out.shape[1], w), np.float32)
-    row = np.empty(len(xdest), np.uint8)
+def _unpack_boxes(packed, boxes, canvases, tops):
+    """Box f of packed frame f (big-endian bits) as 0/1 bytes at rows tops[f] .., columns 0 .. of
+    `canvases` (zeros); whole zero bytes are skipped."""
     for f in range(len(packed)):
         x0, y0, x1, y1 = boxes[f, 0], boxes[f, 1], boxes[f, 2], boxes[f, 3]
-        if x0 >= x1 or y0 >= y1:
-            continue
-        dx0, dx1, dy0, dy1 = _region(x0, y0, x1, y1, ydest, xdest)
-        acc[dy0:dy1, dx0:dx1] = 0
         for sy in range(y0, y1):
-            bits, n = packed[f, sy], x1 - x0
-            row[:n] = 0
+            bits, row = packed[f, sy], canvases[tops[f] + sy - y0]
             for b in range(x0 >> 3, (x1 + 7) >> 3):
                 if bits[b]:  # mostly whole bytes of background or of object
                     for x in range(max(8 * b, x0), min(8 * b + 8, x1)):
                         row[x - x0] = (bits[b] >> (7 - (x & 7))) & 1
-            _add_row(row[:n], sy, x0, acc, buf, dx0, dx1, ydest, yweight, xdest, xweight)
-        _write(out[f], acc, dx0, dx1, dy0, dy1, factor, rounded)
 
 
 def shrink_packed(
@@ -195,5 +167,10 @@ def shrink_packed(
         j = int(np.argmax(outside))
         raise InputError(f"frame {j}: box {tuple(boxes[j].tolist())} is not inside its {width}x{H0} "
                          f"frame of {packed.shape[2]} bytes a row")
-    _shrink_packed(packed, boxes, out, not coverage, *shrink_tables((H0, width), size))
+    extent = np.maximum(boxes[:, 2:] - boxes[:, :2], 0)  # an empty box: no rows
+    tops = np.concatenate([[0], np.cumsum(extent[:, 1])])
+    canvases = np.zeros((int(tops[-1]), int(extent[:, 0].max(initial=1))), np.uint8)
+    _unpack_boxes(packed, boxes, canvases, tops[:-1])
+    tables = shrink_tables((H0, width), size)
+    shrink_canvases(canvases, tops[:-1], boxes[:, :2], boxes[:, 2:], out, not coverage, *tables)
     return out
