@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..store.digest import example_digest, padded_frame_digest
-from ..store.masks import FrameStats, packed_width
+from ..store.masks import FrameStats, largest_region, packed_width
 from ..store.shard_writer import ShardChunks
 from .batch_render import render_boxes
 from .kernel import kernel
@@ -83,12 +83,11 @@ def run_shard(task: ShardTask) -> ShardResult:
                     pixels, x0, y0, one_region = box
                     y1 = y0 + pixels.shape[0]
                     _pack_box(pixels, x0, y0, packed[i], measured)
-                    f = e * n + i
-                    if one_region or measured[0] == 0:
-                        stats.area[f] = stats.largest_area[f] = measured[0]
-                        stats.bbox[f] = measured[1:]
-                    else:
-                        stats.set(f, pixels, x0, y0)
+                    f, (area, bx0, by0, bx1, by1) = e * n + i, measured
+                    stats.area[f], stats.largest_area[f], stats.bbox[f] = area, area, measured[1:]
+                    if area and not one_region:  # eroded or cut: maybe several regions
+                        object_pixels = pixels[by0 - y0 : by1 - y0, bx0 - x0 : bx1 - x0]
+                        stats.largest_area[f] = largest_region(object_pixels, int(area))
                     drawn.append(packed[i, y0:y1])
                 frame_digests.append(padded_frame_digest(packed[i, y0:y1], y0, H, spec.z[i], spec.z[i]))
             chunks.add(packed)

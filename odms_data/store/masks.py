@@ -47,10 +47,9 @@ class FrameStats:
             np.zeros(k, np.int32), np.zeros(k, np.int32), np.zeros((k, 4), np.int32)
         )
 
-    def set(self, i: int, mask: np.ndarray, x_off: int = 0, y_off: int = 0, one_region: bool = False) -> None:
-        """Record the statistics of `mask` (a region of a frame at x_off, y_off) as frame i;
-        `one_region`: the caller knows the object is one 8-connected region."""
-        self.area[i], self.largest_area[i], self.bbox[i] = mask_stats(mask, x_off, y_off, one_region)
+    def set(self, i: int, mask: np.ndarray) -> None:
+        """Record the statistics of `mask` as frame i."""
+        self.area[i], self.largest_area[i], self.bbox[i] = mask_stats(mask)
 
     def copy(self, src: int, dst: int) -> None:
         """Frame dst has the statistics of frame src."""
@@ -58,23 +57,23 @@ class FrameStats:
             a[dst] = a[src]
 
 
-def mask_stats(
-    mask: np.ndarray, x_off: int = 0, y_off: int = 0, one_region: bool = False
-) -> tuple[int, int, tuple]:
-    """Area, area of the largest 8-connected region and bounding box of one binary mask
-    (`one_region`: known to be one region, so its area)."""
+def largest_region(mask: np.ndarray, area: int) -> int:
+    """Pixels of the largest 8-connected region of a 0/1 uint8 mask with `area` object pixels
+    (cropped to its object, the labelling is cheaper)."""
+    n_labels, labels = _opencv().connectedComponents(np.ascontiguousarray(mask), connectivity=8,
+                                                     ltype=_opencv().CV_32S)
+    return area if n_labels == 2 else int(np.bincount(labels.ravel())[1:].max())
+
+
+def mask_stats(mask: np.ndarray) -> tuple[int, int, tuple]:
+    """Area, area of the largest 8-connected region and bounding box of one binary mask."""
     cv2 = _opencv()
     m = mask.view(np.uint8) if mask.dtype == bool else (mask != 0).view(np.uint8)
     area = cv2.countNonZero(m)
     if area == 0:
         return 0, 0, (0, 0, 0, 0)
     x, y, w, h = cv2.boundingRect(m)
-    if one_region:
-        return area, area, (x + x_off, y + y_off, x + w + x_off, y + h + y_off)
-    crop = np.ascontiguousarray(m[y : y + h, x : x + w])
-    n_labels, labels = cv2.connectedComponents(crop, connectivity=8, ltype=cv2.CV_32S)
-    largest = area if n_labels == 2 else int(np.bincount(labels.ravel())[1:].max())
-    return area, largest, (x + x_off, y + y_off, x + w + x_off, y + h + y_off)
+    return area, largest_region(m[y : y + h, x : x + w], area), (x, y, x + w, y + h)
 
 
 def stats_of(masks: np.ndarray) -> FrameStats:
