@@ -29,7 +29,7 @@ from .object_model import ExampleSpec
 from .params import GeneratorParams
 from .raster import draw_silhouettes
 from .render import CROSS, render_frame
-from .shrink import computes_like_cv2, resize_masks, shrink_canvases, shrink_tables
+from .shrink import computes_like_cv2, resize_masks, shrink_canvases, shrink_tables, stacked_canvases
 
 cv2.setNumThreads(1)
 
@@ -88,15 +88,14 @@ def _placed(contours, lengths, n, scale, half, cx, cy, sx, sy, k):
     for e in range(len(lengths)):
         m = lengths[e]
         for f in range(e * n, e * n + n):
-            low, high = np.full(2, np.inf), np.full(2, -np.inf)
-            for v in range(m):
-                for a, c, s in ((0, cx, sx), (1, cy, sy)):
+            for a, c, s in ((0, cx, sx), (1, cy, sy)):
+                low, high = np.inf, -np.inf
+                for v in range(m):
                     p = (contours[first + v, a] * scale[f] + c - half[f]) * s
                     poly[row + v, a] = p
-                    low[a], high[a] = min(low[a], p), max(high[a], p)
-            for a in range(2):
-                lo[f, a] = int(np.floor(low[a])) - (k[f] + 1)
-                hi[f, a] = int(np.ceil(high[a])) + k[f] + 2
+                    low, high = min(low, p), max(high, p)
+                lo[f, a] = int(np.floor(low)) - (k[f] + 1)
+                hi[f, a] = int(np.ceil(high)) + k[f] + 2
                 poly[row : row + m, a] -= lo[f, a]
             row += m
         first += m
@@ -151,13 +150,12 @@ def _canvases(g: FrameGeometry) -> tuple[np.ndarray, np.ndarray]:
     """Every frame's canvas as render_frame draws and perturbs it, stacked top to bottom in one
     image as wide as the widest (frame f from row tops[f], column 0); returns (image, tops)."""
     size = g.hi - g.lo
-    tops = np.concatenate([[0], np.cumsum(size[:, 1])])
-    stacked = np.zeros((int(tops[-1]), int(size[:, 0].max())), np.uint8)
-    g.draw(stacked, np.arange(len(size)), np.stack([np.zeros_like(tops[:-1]), tops[:-1]], axis=1))
+    stacked, tops = stacked_canvases(size)
+    g.draw(stacked, np.arange(len(size)), np.stack([np.zeros_like(tops), tops], axis=1))
     for f in np.flatnonzero(g.k):
-        band = stacked[tops[f] : tops[f + 1], : size[f, 0]]
+        band = stacked[tops[f] : tops[f] + size[f, 1], : size[f, 0]]
         band[...] = (cv2.dilate if g.dilate[f] else cv2.erode)(band, CROSS, iterations=int(g.k[f]))
-    return stacked, tops[:-1]
+    return stacked, tops
 
 
 def render_boxes(

@@ -64,16 +64,12 @@ def _fill(img, cx, cy, left, right, stack):
         inner, outer = b, b - 1  # the pixels both neighbouring spans cover: inner .. outer
         if 0 < y < h - 1:
             inner, outer = max(left[y - 1], left[y + 1]), min(right[y - 1], right[y + 1])
-        for x in range(a, min(b, inner)):
-            if row[cx + x] == 0:
-                row[cx + x] = OUTSIDE
-                stack[n, 0], stack[n, 1] = y, x
-                n += 1
-        for x in range(max(a, outer + 1), b):
-            if row[cx + x] == 0:
-                row[cx + x] = OUTSIDE
-                stack[n, 0], stack[n, 1] = y, x
-                n += 1
+        for start, stop in ((a, min(b, inner)), (max(a, outer + 1), b)):
+            for x in range(start, stop):
+                if row[cx + x] == 0:
+                    row[cx + x] = OUTSIDE
+                    stack[n, 0], stack[n, 1] = y, x
+                    n += 1
     while n > 0:
         n -= 1
         y0, x0 = stack[n, 0], stack[n, 1]
@@ -95,7 +91,9 @@ def draw_silhouettes(img, poly, starts, frames, corners):
     its canvas corner at corners[t] (x, y). Polygon f is rows starts[f] .. starts[f + 1] - 1 of
     poly (vertices x, y relative to its canvas corner, at least one pixel from the canvas' top and
     left); its pixels must lie inside img, with an empty pixel beyond them below and right."""
-    room = 0
+    if len(frames) == 0:
+        return
+    extent = np.empty((len(frames), 2), np.int64)  # each canvas's rows and columns holding pixels
     for t in range(len(frames)):  # check every polygon first: the kernel writes unchecked
         p = poly[starts[frames[t]] : starts[frames[t] + 1]]
         cx, cy = corners[t, 0], corners[t, 1]
@@ -103,14 +101,12 @@ def draw_silhouettes(img, poly, starts, frames, corners):
         inside = p.min() >= 1 and x1 < img.shape[1] - 1 - cx and y1 < img.shape[0] - 1 - cy
         if not (inside and cx >= 0 and cy >= 0):  # NaN compares false: refused too
             raise ValueError("a polygon leaves its canvas or the image")
-        room = max(room, (int(x1) + 2) * (int(y1) + 2))
-    stack = np.empty((room, 2), np.int64)
+        extent[t, 0], extent[t, 1] = int(y1) + 1, int(x1) + 1
+    stack = np.empty(((extent[:, 0] * extent[:, 1]).max(), 2), np.int64)
     for t in range(len(frames)):
         s, e = starts[frames[t]], starts[frames[t] + 1]
-        p = poly[s:e]
         cx, cy = corners[t, 0], corners[t, 1]
-        h = int(math.floor(p[:, 1].max())) + 1
-        w = int(math.floor(p[:, 0].max())) + 1
+        h, w = extent[t, 0], extent[t, 1]
         left, right = np.full(h, w, np.int64), np.full(h, -1, np.int64)
         _mark(img, poly, s, e, cx, cy, left, right)
         _fill(img, cx, cy, left, right, stack)

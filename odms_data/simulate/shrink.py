@@ -83,6 +83,14 @@ def shrink_tables(full: tuple[int, int], size: tuple[int, int]) -> tuple:
     return (*area_weights(H, h, whole), *area_weights(W, w, whole), factor)
 
 
+def stacked_canvases(extent: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A zero uint8 image holding canvases of `extent` (k, 2: width, height) top to bottom, as
+    wide as the widest, and the row where each begins."""
+    ends = np.cumsum(extent[:, 1])
+    image = np.zeros((int(ends[-1]) if len(ends) else 0, int(extent[:, 0].max(initial=1))), np.uint8)
+    return image, ends - extent[:, 1]
+
+
 @kernel
 def shrink_canvases(canvases, tops, lo, hi, out, rounded, ydest, yweight, xdest, xweight, factor):
     """out[f] (zeros; float32 coverage, or with `rounded` the uint8 coverage rounded to nearest,
@@ -167,10 +175,8 @@ def shrink_packed(
         j = int(np.argmax(outside))
         raise InputError(f"frame {j}: box {tuple(boxes[j].tolist())} is not inside its {width}x{H0} "
                          f"frame of {packed.shape[2]} bytes a row")
-    extent = np.maximum(boxes[:, 2:] - boxes[:, :2], 0)  # an empty box: no rows
-    tops = np.concatenate([[0], np.cumsum(extent[:, 1])])
-    canvases = np.zeros((int(tops[-1]), int(extent[:, 0].max(initial=1))), np.uint8)
-    _unpack_boxes(packed, boxes, canvases, tops[:-1])
+    canvases, tops = stacked_canvases(np.maximum(boxes[:, 2:] - boxes[:, :2], 0))  # an empty box: no rows
+    _unpack_boxes(packed, boxes, canvases, tops)
     tables = shrink_tables((H0, width), size)
-    shrink_canvases(canvases, tops[:-1], boxes[:, :2], boxes[:, 2:], out, not coverage, *tables)
+    shrink_canvases(canvases, tops, boxes[:, :2], boxes[:, 2:], out, not coverage, *tables)
     return out
