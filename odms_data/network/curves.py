@@ -6,7 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .run_folder import CURVES, PLOT, TRAIN, VAL, RunFolder, read_curves, replace_atomically
+from ..outputs import replaced_via_partial
+from .run_folder import CURVES, PLOT, TRAIN, VAL, RunFolder, read_curves
 
 SMOOTH = 25  # training batches averaged into one point of the training curve
 
@@ -53,6 +54,7 @@ def draw(folder: RunFolder) -> Path | None:
                  f"batch {config.batch_size}, lr {config.lr:g}, {config.preset} stream seed {config.seed}")
     fig.tight_layout()
     path = folder.file(PLOT)
-    replace_atomically(path, lambda p: fig.savefig(p, format="png", dpi=110))
+    with replaced_via_partial(path) as partial:
+        fig.savefig(partial, format="png", dpi=110)
     plt.close(fig)
     return path

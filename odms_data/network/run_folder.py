@@ -94,13 +94,6 @@ def _splits_of_seed(seed: int) -> list[str]:
     return [m.name for m in manifests if m.generator and m.generator.get("seed") == seed]
 
 
-def replace_atomically(path: Path, write: Callable[[Path], object]) -> None:
-    """write(partial) to a sibling, flushed and renamed onto `path`; on a failure the sibling is
-    removed, `path` keeps its previous content and a full disk is one line naming `path`."""
-    with replaced_via_partial(path) as partial:
-        write(partial)
-
-
 class RunFolder:
     """A run's folder; `create` makes or reopens one for a config, `open` reads a finished one."""
 
@@ -147,7 +140,8 @@ class RunFolder:
         for name in (LAST, BEST, CURVES, PLOT):
             self.file(name).unlink(missing_ok=True)
         text = json.dumps({"config": config.to_json(), "odms_data": __version__}, indent=2) + "\n"
-        replace_atomically(self.file(CONFIG), lambda p: p.write_text(text, encoding="utf-8"))
+        with replaced_via_partial(self.file(CONFIG)) as partial:
+            partial.write_text(text, encoding="utf-8")
         return False
 
     @contextmanager
@@ -157,13 +151,10 @@ class RunFolder:
         path = self.file(CURVES)
         kept = [r for r in read_curves(path) if int(r["iteration"]) <= upto] if path.is_file() else []
 
-        def write(p: Path) -> None:
-            with open(p, "w", newline="", encoding="utf-8") as f:
-                out = csv.writer(f, lineterminator="\n")
-                out.writerow(CURVE_COLUMNS)
-                out.writerows([r[c] for c in CURVE_COLUMNS] for r in kept)
-
-        replace_atomically(path, write)
+        with replaced_via_partial(path) as partial, open(partial, "w", newline="", encoding="utf-8") as f:
+            out = csv.writer(f, lineterminator="\n")
+            out.writerow(CURVE_COLUMNS)
+            out.writerows([r[c] for c in CURVE_COLUMNS] for r in kept)
         with open(path, "a", newline="", encoding="utf-8") as f:
             yield _appender(csv.writer(f, lineterminator="\n"), f)
 

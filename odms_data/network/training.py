@@ -23,12 +23,13 @@ from torch.utils.data import DataLoader
 from ..errors import InputError
 from ..evaluation.metrics import percent_errors
 from ..loaders.torch_loader import StreamDataset
+from ..outputs import replaced_via_partial
 from ..simulate.params import PRESETS, GeneratorParams
 from ..store.reader import open_store
 from . import odn
 from .odn import ODN
 from .prediction import Batch, outputs_and_depths, pick_device, read_checkpoint, store_batches, to_device
-from .run_folder import BEST, LAST, TRAIN, VAL, AddRow, RunFolder, TrainConfig, replace_atomically
+from .run_folder import BEST, LAST, TRAIN, VAL, AddRow, RunFolder, TrainConfig
 from .variants import Variant, variant
 
 
@@ -103,7 +104,8 @@ class Validation:
 
 
 def _save(path: Path, content: dict) -> None:
-    replace_atomically(path, lambda p: torch.save(content, p))
+    with replaced_via_partial(path) as partial:
+        torch.save(content, partial)
 
 
 def train(
