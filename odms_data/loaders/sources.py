@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..simulate.batch_render import render_masks, render_shrunk
-from ..simulate.object_model import sample_example
+from ..simulate.object_model import sample_examples
 from ..simulate.params import PRESETS, GeneratorParams
 from ..simulate.shrink import shrink_packed
 from ..store.masks import unpack
@@ -157,7 +157,7 @@ class GeneratedExamples:
         """The examples at generator `indices`, drawn together (simulate.batch_render) into arrays made by
         `empty`, a few dozen examples at a time."""
         p, t, chosen = self.params, self.transform, self._chosen
-        specs = [sample_example(p, self.seed, int(i)) for i in indices]
+        specs = sample_examples(p, self.seed, indices)
         size = t.size or p.image_size
         dtype = np.dtype(np.uint8 if t.rounded else np.float32)
         masks = empty((len(specs), len(chosen), *size), dtype)

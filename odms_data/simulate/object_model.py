@@ -8,12 +8,16 @@ shape choices, contour points with their spacing redraws, then one perturbation 
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import cast
 
 import numpy as np
 
 from .params import GeneratorParams
+
+SPACING_BLOCK = 8  # contour-point tries drawn at once at first; the block doubles each round
 
 
 @dataclass
@@ -32,29 +36,77 @@ def example_rng(seed: int, index: int) -> np.random.Generator:
 
 def sample_example(params: GeneratorParams, seed: int, index: int) -> ExampleSpec:
     """Draw camera positions, contour and perturbations of example `index` of `seed`."""
-    p, rng = params, example_rng(seed, index)
+    return sample_examples(params, seed, [index])[0]
+
+
+def sample_examples(params: GeneratorParams, seed: int, indices: Iterable[int]) -> list[ExampleSpec]:
+    """`sample_example` of each of `indices`. The draws are made example by example; the contours
+    of the examples with the same number of points are computed together, with the same
+    element-wise operations, so the result does not depend on what else is in the batch."""
+    p = params
+    firsts = [_first_draws(p, example_rng(seed, int(i))) for i in indices]
+    contours: list[np.ndarray] = [np.empty(0)] * len(firsts)
+    for n, members in _by_point_count([f.n_points for f in firsts]).items():
+        unit = _spaced_points([firsts[i].rng for i in members], n, p.min_spacing / n, p.spacing_tries)
+        sizes = np.array([firsts[i].size for i in members])
+        radii = np.array([firsts[i].radius for i in members])
+        weights = np.array([_tangent_weight(firsts[i].rotation) for i in members])
+        curves = _bezier_contours(unit * sizes[:, None, None], radii, weights, p.curve_samples)
+        for k, i in enumerate(members):
+            contours[i] = curves[k]
+    return [
+        ExampleSpec(
+            z=f.z, contour=c, size=int(f.size),
+            perturb=f.rng.normal(0.0, p.perturb_std, p.n_obs) if p.perturb_std > 0 else np.zeros(p.n_obs),
+        )
+        for f, c in zip(firsts, contours, strict=True)
+    ]
+
+
+@dataclass
+class _FirstDraws:
+    """An example's draws before its contour points, and its generator, positioned after them."""
+
+    rng: np.random.Generator
+    z: np.ndarray
+    size: int
+    n_points: int
+    radius: float
+    rotation: float
+
+
+def _first_draws(p: GeneratorParams, rng: np.random.Generator) -> _FirstDraws:
     z1 = p.d_min + rng.random() * (p.d_max - p.dz_min - p.d_min)
     zn = z1 + p.dz_min + rng.random() * (p.d_max - p.dz_min - z1)
     inner = np.sort(z1 + rng.random(p.n_obs - 2) * (zn - z1))
-    z = np.concatenate([[z1], inner, [zn]])
-    size = p.sizes[rng.integers(len(p.sizes))]
-    n_points = p.n_points[rng.integers(len(p.n_points))]
-    radius = p.bezier_radius[rng.integers(len(p.bezier_radius))]
-    rotation = p.bezier_rotation[rng.integers(len(p.bezier_rotation))]
-    points = spaced_points(rng, n_points, p.min_spacing / n_points, p.spacing_tries) * size
-    contour = bezier_contour(points, radius, rotation, p.curve_samples)
-    perturb = rng.normal(0.0, p.perturb_std, p.n_obs) if p.perturb_std > 0 else np.zeros(p.n_obs)
-    return ExampleSpec(z=z, contour=contour, size=int(size), perturb=perturb)
+    return _FirstDraws(
+        rng=rng,
+        z=np.concatenate([[z1], inner, [zn]]),
+        size=p.sizes[rng.integers(len(p.sizes))],
+        n_points=p.n_points[rng.integers(len(p.n_points))],
+        radius=p.bezier_radius[rng.integers(len(p.bezier_radius))],
+        rotation=p.bezier_rotation[rng.integers(len(p.bezier_rotation))],
+    )
+
+
+def _by_point_count(counts: list[int]) -> dict[int, list[int]]:
+    """Positions of the examples with each number of contour points."""
+    groups: dict[int, list[int]] = {}
+    for i, n in enumerate(counts):
+        groups.setdefault(n, []).append(i)
+    return groups
 
 
 def _angular_order(points: np.ndarray) -> np.ndarray:
-    c = np.add.reduce(points, axis=0) / len(points)  # points.mean(axis=0), without its overhead
-    return points[np.argsort(np.arctan2(points[:, 1] - c[1], points[:, 0] - c[0]))]
+    """(..., n, 2) point sets, each ordered by angle around its centroid."""
+    c = np.add.reduce(points, axis=-2) / points.shape[-2]  # points.mean(axis=-2), without its overhead
+    angle = np.arctan2(points[..., 1] - c[..., 1:], points[..., 0] - c[..., :1])
+    return np.take_along_axis(points, np.argsort(angle, axis=-1)[..., None], axis=-2)
 
 
 def _next(a: np.ndarray) -> np.ndarray:
-    """np.roll(a, -1, axis=0): each row's successor around the loop."""
-    return np.concatenate((a[1:], a[:1]))
+    """np.roll(a, -1, axis=1): each point's successor around its loop."""
+    return np.concatenate((a[:, 1:], a[:, :1]), axis=1)
 
 
 @lru_cache(maxsize=8)
@@ -67,6 +119,12 @@ def _bernstein(samples: int) -> tuple[np.ndarray, ...]:
     return weights
 
 
+@lru_cache(maxsize=64)
+def _tangent_weight(rotation: float) -> float:
+    """w = arctan(rotation)/pi + 1/2, the weight of the outgoing chord's direction."""
+    return float(np.arctan(rotation) / np.pi + 0.5)
+
+
 def spaced_points(rng: np.random.Generator, n: int, min_gap: float, tries: int) -> np.ndarray:
     """n points uniform in the unit square, ordered by angle around their centroid, redrawn
     (at most `tries` draws, the last kept) until |dx + dy| >= min_gap for every two consecutive
@@ -76,34 +134,61 @@ def spaced_points(rng: np.random.Generator, n: int, min_gap: float, tries: int) 
     Without a spacing rule thin slivers are common, and VOS-DE on the simulated set lands about
     one point above the official normal set. schemas/FIDELITY.md compares the rules.
     """
-    for _ in range(tries):
-        pts = _angular_order(rng.random((n, 2)))
-        steps = pts[1:] - pts[:-1]
-        if np.abs(steps[:, 0] + steps[:, 1]).min() >= min_gap:
-            break
-    return pts
+    return _spaced_points([rng], n, min_gap, tries)[0]
 
 
-def bezier_contour(points: np.ndarray, radius: float, rotation: float, samples: int) -> np.ndarray:
-    """Closed curve through `points` (ordered by angle around their centroid) of cubic Beziers.
+def _spaced_points(rngs: list[np.random.Generator], n: int, min_gap: float, tries: int) -> np.ndarray:
+    """(len(rngs), n, 2): `spaced_points` from each generator (PCG64, as `example_rng` makes),
+    the tries of all drawn in blocks.
 
-    The tangent at each point mixes the directions of its incoming and outgoing chords with
-    weight w = arctan(rotation)/pi + 1/2; the inner control points sit at `radius` times the
-    chord length along those tangents.
+    Each generator draws a block of tries; the first good one is kept and the generator is
+    stepped back over the tries after it (PCG64.advance by minus their draws), so it ends where
+    drawing one try at a time would have left it. The step back drops PCG64's buffered half
+    word, which only 32-bit draws use, and the draws that follow are 64-bit (normal).
+    """
+    out = np.empty((len(rngs), n, 2))
+    todo, tried, block = list(range(len(rngs))), 0, SPACING_BLOCK
+    while todo:
+        k = min(block, tries - tried)
+        candidates = np.empty((len(todo), k, n, 2))
+        for j, i in enumerate(todo):
+            rngs[i].random(out=candidates[j])
+        pts = _angular_order(candidates)
+        steps = pts[..., 1:, :] - pts[..., :-1, :]
+        good = np.abs(steps[..., 0] + steps[..., 1]).min(axis=-1) >= min_gap
+        tried += k
+        first = np.where(good.any(axis=1), good.argmax(axis=1), k - 1 if tried == tries else -1)
+        for j, i in enumerate(todo):
+            if first[j] >= 0:
+                out[i] = pts[j, first[j]]
+                if first[j] < k - 1:
+                    cast(np.random.PCG64, rngs[i].bit_generator).advance(-(k - 1 - int(first[j])) * 2 * n)
+        todo = [i for j, i in enumerate(todo) if first[j] < 0]
+        block *= 2
+    return out
+
+
+def _bezier_contours(points: np.ndarray, radius: np.ndarray, weight: np.ndarray, samples: int) -> np.ndarray:
+    """(G, n * samples, 2): closed curves through each of the G point sets `points` (G, n, 2),
+    of cubic Beziers.
+
+    The tangent at each point mixes the directions of its incoming and outgoing chords with the
+    set's `weight` w (`_tangent_weight`); the inner control points sit at the set's `radius`
+    times the chord length along those tangents.
     """
     p0 = _angular_order(points)
     p3 = _next(p0)
     chord = p3 - p0
-    theta = np.mod(np.arctan2(chord[:, 1], chord[:, 0]), 2 * np.pi)
-    prev = np.concatenate((theta[-1:], theta[:-1]))
-    w = np.arctan(rotation) / np.pi + 0.5
+    theta = np.mod(np.arctan2(chord[..., 1], chord[..., 0]), 2 * np.pi)
+    prev = np.concatenate((theta[:, -1:], theta[:, :-1]), axis=1)
+    w = weight[:, None]
     tangent = w * theta + (1 - w) * prev + np.pi * (np.abs(prev - theta) > np.pi)
-    r = (radius * np.hypot(chord[:, 0], chord[:, 1]))[:, None]
-    direction = np.empty((len(p0), 2))
-    np.cos(tangent, out=direction[:, 0])
-    np.sin(tangent, out=direction[:, 1])
+    r = (radius[:, None] * np.hypot(chord[..., 0], chord[..., 1]))[..., None]
+    direction = np.empty(p0.shape)
+    np.cos(tangent, out=direction[..., 0])
+    np.sin(tangent, out=direction[..., 1])
     p1 = p0 + r * direction
     p2 = p3 - r * _next(direction)
     b0, b1, b2, b3 = _bernstein(samples)
-    curve = b0 * p0[:, None] + b1 * p1[:, None] + b2 * p2[:, None] + b3 * p3[:, None]
-    return curve.reshape(-1, 2)
+    curve = b0 * p0[:, :, None] + b1 * p1[:, :, None] + b2 * p2[:, :, None] + b3 * p3[:, :, None]
+    return curve.reshape(len(points), -1, 2)

@@ -20,11 +20,11 @@ from ..store.masks import FrameStats, largest_region, packed_width
 from ..store.shard_writer import ShardChunks
 from .batch_render import render_boxes
 from .kernel import kernel
-from .object_model import ExampleSpec, sample_example
+from .object_model import ExampleSpec, sample_examples
 from .params import GeneratorParams
 
 SOURCE = "generated"
-DRAW_CHUNK = 8  # examples drawn together: fewer calls, the drawing's scratch image a few MB
+DRAW_CHUNK = 8  # examples rendered together: fewer calls, the drawing's scratch image a few MB
 
 
 def example_ids(split: str, count: int, start: int, stop: int) -> list[str]:
@@ -126,12 +126,13 @@ def _drawn(
     p: GeneratorParams, seed: int, start: int, stop: int
 ) -> Iterator[tuple[int, ExampleSpec, list[tuple[np.ndarray, int, int, bool] | None]]]:
     """(position in the shard, draws, render_boxes of its frames) of examples start..stop-1,
-    drawn DRAW_CHUNK examples at a time."""
-    for a in range(start, stop, DRAW_CHUNK):
-        specs = [sample_example(p, seed, index) for index in range(a, min(a + DRAW_CHUNK, stop))]
-        boxes = render_boxes(specs, p)
-        for j, spec in enumerate(specs):
-            yield a - start + j, spec, boxes[j * p.n_obs : (j + 1) * p.n_obs]
+    all sampled together and rendered DRAW_CHUNK examples at a time."""
+    specs = sample_examples(p, seed, range(start, stop))
+    for a in range(0, len(specs), DRAW_CHUNK):
+        chunk = specs[a : a + DRAW_CHUNK]
+        boxes = render_boxes(chunk, p)
+        for j, spec in enumerate(chunk):
+            yield a + j, spec, boxes[j * p.n_obs : (j + 1) * p.n_obs]
 
 
 _reused = threading.local()  # per thread: a Dask worker may run several tasks at once

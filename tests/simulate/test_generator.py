@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from odms_data.errors import InputError
-from odms_data.simulate.object_model import sample_example, spaced_points
+from odms_data.simulate.object_model import sample_example, sample_examples, spaced_points
 from odms_data.simulate.params import PRESETS, GeneratorParams, preset
 from odms_data.simulate.render import render_masks
 from odms_data.store.masks import stats_of
@@ -74,6 +74,33 @@ def test_same_seed_and_index_give_the_same_example_whatever_the_order():
     c = sample_example(STANDARD, 10, 123)
     assert not np.array_equal(a.z, c.z)
 
+
+
+def test_an_example_is_the_same_whatever_else_is_sampled_with_it():
+    params = replace(PERTURB, n_points=(3, 4, 9, 10), spacing_tries=5)  # the last try kept, often
+    indices = [17, 3, 250, 3, 0, 41, 8, 99, 5, 12, 64, 7]
+    together = sample_examples(params, 6, indices)
+    for index, spec in zip(indices, together, strict=True):
+        alone = sample_example(params, 6, index)
+        for key in ("z", "contour", "perturb"):
+            np.testing.assert_array_equal(getattr(spec, key), getattr(alone, key))
+        assert spec.size == alone.size
+
+
+@pytest.mark.parametrize(("n", "tries"), [(3, 201), (7, 201), (10, 201), (10, 2), (6, 1)])
+def test_tries_drawn_in_blocks_match_drawing_one_at_a_time(n, tries):
+    """The generator is stepped back over the tries drawn after the one kept."""
+    for seed in range(40):
+        one, block = np.random.default_rng(seed), np.random.default_rng(seed)
+        for _ in range(tries):
+            pts = one.random((n, 2))
+            c = pts.mean(axis=0)
+            pts = pts[np.argsort(np.arctan2(pts[:, 1] - c[1], pts[:, 0] - c[0]))]
+            steps = np.diff(pts, axis=0)
+            if np.abs(steps[:, 0] + steps[:, 1]).min() >= 0.7 / n:
+                break
+        np.testing.assert_array_equal(spaced_points(block, n, 0.7 / n, tries), pts)
+        np.testing.assert_array_equal(block.normal(size=3), one.normal(size=3))
 
 def test_points_are_spaced_by_the_released_generators_rule():
     rng = np.random.default_rng(0)
