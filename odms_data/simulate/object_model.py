@@ -16,6 +16,7 @@ from typing import cast
 import numpy as np
 
 from .params import GeneratorParams
+from .seeding import example_rngs
 
 SPACING_BLOCK = 8  # contour-point tries drawn at once at first; the block doubles each round
 
@@ -30,10 +31,6 @@ class ExampleSpec:
     perturb: np.ndarray  # (n,) eq. 20 draws p (zeros when not perturbing)
 
 
-def example_rng(seed: int, index: int) -> np.random.Generator:
-    return np.random.Generator(np.random.PCG64(np.random.SeedSequence(seed, spawn_key=(index,))))
-
-
 def sample_example(params: GeneratorParams, seed: int, index: int) -> ExampleSpec:
     """Draw camera positions, contour and perturbations of example `index` of `seed`."""
     return sample_examples(params, seed, [index])[0]
@@ -44,7 +41,7 @@ def sample_examples(params: GeneratorParams, seed: int, indices: Iterable[int]) 
     of the examples with the same number of points are computed together, with the same
     element-wise operations, so the result does not depend on what else is in the batch."""
     p = params
-    firsts = [_first_draws(p, example_rng(seed, int(i))) for i in indices]
+    firsts = [_first_draws(p, rng) for rng in example_rngs(seed, list(indices))]
     contours: list[np.ndarray] = [np.empty(0)] * len(firsts)
     for n, members in _by_point_count([f.n_points for f in firsts]).items():
         unit = _spaced_points([firsts[i].rng for i in members], n, p.min_spacing / n, p.spacing_tries)
@@ -138,7 +135,7 @@ def spaced_points(rng: np.random.Generator, n: int, min_gap: float, tries: int) 
 
 
 def _spaced_points(rngs: list[np.random.Generator], n: int, min_gap: float, tries: int) -> np.ndarray:
-    """(len(rngs), n, 2): `spaced_points` from each generator (PCG64, as `example_rng` makes),
+    """(len(rngs), n, 2): `spaced_points` from each generator (PCG64, as `example_rngs` makes),
     the tries of all drawn in blocks.
 
     Each generator draws a block of tries; the first good one is kept and the generator is
