@@ -123,7 +123,8 @@ def _tangent_weight(rotation: float) -> float:
 
 
 def spaced_points(rng: np.random.Generator, n: int, min_gap: float, tries: int) -> np.ndarray:
-    """n points uniform in the unit square, ordered by angle around their centroid, redrawn
+    """n points uniform in the unit square (drawn from `rng`, a PCG64 Generator such as
+    np.random.default_rng makes), ordered by angle around their centroid, redrawn
     (at most `tries` draws, the last kept) until |dx + dy| >= min_gap for every two consecutive
     points of that order, first to last: the released generator's rule, which measures no gap
     from the last point back to the first, and |dx + dy| rather than the distance.

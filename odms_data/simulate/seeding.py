@@ -1,11 +1,12 @@
 """Each example's random generator, `PCG64(SeedSequence(seed, spawn_key=(index,)))`, made for a
 whole batch of indices at once.
 
-NumPy builds a SeedSequence and draws the PCG64 state from it with a few hundred scalar steps
-per generator, a tenth of the time of sampling an example. `example_rngs` runs the same hash
-(NumPy's SeedSequence: O'Neill's seed_seq_fe mixing of a 4-word pool, uint32 arithmetic) on
-arrays, one row per index, and hands each PCG64 its state words. NumPy fixes this algorithm for
-stream compatibility; tests/simulate/test_seeding.py checks the states against SeedSequence's.
+NumPy builds a SeedSequence and draws the PCG64 state from it in scalar steps, about 30 us a
+generator here, a quarter of an example's draws once those are batched. `example_rngs` runs the
+same hash (NumPy's SeedSequence: O'Neill's seed_seq_fe mixing of a 4-word pool, uint32
+arithmetic) on arrays, one row per index, and hands each PCG64 its state words. NumPy fixes this
+algorithm for stream compatibility; tests/simulate/test_seeding.py checks the states against
+SeedSequence's.
 """
 
 from __future__ import annotations
@@ -54,8 +55,8 @@ def _mix(x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 
 def _states(entropy: np.ndarray) -> np.ndarray:
-    """(B, 4) uint64 PCG64 seed words (state high, low; increment high, low) of the
-    SeedSequences whose assembled entropy words are the rows of `entropy` (B, L) uint32."""
+    """(B, 4) uint64: `generate_state(4, np.uint64)`, which PCG64 seeds its state and increment
+    from, of the SeedSequences whose assembled entropy words are the rows of `entropy` (B, L)."""
     with np.errstate(over="ignore"):
         h = _HashConstant(INIT_A, MULT_A)
         zero = np.zeros(len(entropy), np.uint32)
