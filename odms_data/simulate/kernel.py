@@ -18,6 +18,7 @@ import numba
 
 
 def cache_dir() -> str:
+    """The kernels' cache folder when NUMBA_CACHE_DIR names none."""
     base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
     return os.path.join(base, "odms-data", "numba")
 

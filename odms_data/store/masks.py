@@ -60,8 +60,8 @@ class FrameStats:
 def largest_region(mask: np.ndarray, area: int) -> int:
     """Pixels of the largest 8-connected region of a 0/1 uint8 mask with `area` object pixels
     (cropped to its object, the labelling is cheaper)."""
-    n_labels, labels = _opencv().connectedComponents(np.ascontiguousarray(mask), connectivity=8,
-                                                     ltype=_opencv().CV_32S)
+    cv2 = _opencv()
+    n_labels, labels = cv2.connectedComponents(np.ascontiguousarray(mask), connectivity=8, ltype=cv2.CV_32S)
     return area if n_labels == 2 else int(np.bincount(labels.ravel())[1:].max())
 
 

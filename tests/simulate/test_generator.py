@@ -75,7 +75,6 @@ def test_same_seed_and_index_give_the_same_example_whatever_the_order():
     assert not np.array_equal(a.z, c.z)
 
 
-
 def test_an_example_is_the_same_whatever_else_is_sampled_with_it():
     params = replace(PERTURB, n_points=(3, 4, 9, 10), spacing_tries=5)  # the last try kept, often
     indices = [17, 3, 250, 3, 0, 41, 8, 99, 5, 12, 64, 7]
@@ -101,6 +100,7 @@ def test_tries_drawn_in_blocks_match_drawing_one_at_a_time(n, tries):
                 break
         np.testing.assert_array_equal(spaced_points(block, n, 0.7 / n, tries), pts)
         np.testing.assert_array_equal(block.normal(size=3), one.normal(size=3))
+
 
 def test_points_are_spaced_by_the_released_generators_rule():
     rng = np.random.default_rng(0)
