@@ -9,9 +9,9 @@ rounded (Transform(rounded=True)); "direct" draws uint8 masks straight at 112x11
 (GeneratedExamples(direct=True)). The baseline, measured in the same run, is
 the naive streaming path: draw each mask at 480x640 with render.render_masks and shrink it to
 112x112. Timing starts when the first batch arrives, so worker start-up is left out; the first
-batch is not counted. Batches already under way then (at most two per worker or grain thread)
-are counted without the CPU spent on them before, which flatters every parallel row alike by a
-few per cent at the default size. grain reads with `threads` threads and a prefetch buffer of as
+batch is not counted. Batches already under way then are counted without the CPU spent on them
+before: parallel rows read high by at most the batches in flight (two a worker for the NumPy
+loader) over the batches of the run. grain reads with `threads` threads and a prefetch buffer of as
 many batches, in-process or in mp_prefetch workers.
 
 CPU-seconds are those of the whole process tree (this process and its worker processes, read

@@ -18,9 +18,10 @@ give. grain keeps the order, so the batches do not depend on the number of threa
 and its iterators' get_state/set_state resume a run exactly.
 
 Draw the stream with grain's threads, as above: the drawing releases the GIL, so threads draw
-batches in parallel and hand them over without the copy into shared memory that mp_prefetch makes
-of every batch. Give `to_iter_dataset` a small prefetch buffer: by default grain reads up to 500
-elements ahead, and here an element is a whole batch (128 MB for 512 examples).
+batches in parallel and hand them over as they are, where mp_prefetch puts every batch in a fresh
+shared memory block whose pages are all faulted in anew (schemas/LOADERS.md, "Throughput"). Give
+`to_iter_dataset` a small prefetch buffer: by default grain reads up to 500 elements ahead, and
+here an element is a whole batch (128 MB for 512 examples).
 """
 
 from __future__ import annotations
