@@ -158,26 +158,39 @@ def _canvases(g: FrameGeometry) -> tuple[np.ndarray, np.ndarray]:
     return stacked, tops
 
 
-def render_boxes(
-    specs: Sequence[ExampleSpec], params: GeneratorParams
-) -> list[tuple[np.ndarray, int, int, bool] | None]:
-    """For every frame of every example (example-major): the pixels `render.render_frame` draws
-    into a full-size frame, as (the drawn box, x0, y0, one_region), or None where it draws
-    nothing. `one_region`: the object is known to be one 8-connected region, as a silhouette is
-    (its contour pixels are a closed chain, the rest enclosed by it) unless eroded or cut by
-    the image border."""
+@dataclass
+class FrameBoxes:
+    """What `render.render_frame` draws into each full-size frame of several examples
+    (example-major): frame f's pixels are the box of `image` from row top[f] and column left[f],
+    of size hi[f] - lo[f], placed at lo[f] (x0, y0) of the frame; nothing where not drawn[f]."""
+
+    image: np.ndarray  # the frames' canvases stacked, uint8 0/1
+    top: np.ndarray  # (F,) int64
+    left: np.ndarray  # (F,) int64
+    lo: np.ndarray  # (F, 2) int64, clipped to the frame
+    hi: np.ndarray  # (F, 2) int64, exclusive
+    drawn: np.ndarray  # (F,) bool: render_frame draws into the frame (lo < hi on both axes)
+    one_region: np.ndarray  # (F,) bool: the object is known to be one 8-connected region
+
+    def pixels(self, f: int) -> np.ndarray:
+        """Frame f's box of pixels (a view of `image`)."""
+        (x0, y0), (x1, y1) = self.lo[f], self.hi[f]
+        return self.image[self.top[f] : self.top[f] + y1 - y0, self.left[f] : self.left[f] + x1 - x0]
+
+
+def render_boxes(specs: Sequence[ExampleSpec], params: GeneratorParams) -> FrameBoxes:
+    """The pixels `render.render_frame` draws into every frame of every example, and where.
+
+    `one_region` holds where the object is a silhouette, one 8-connected region (its contour
+    pixels are a closed chain, the rest enclosed by it): not eroded nor cut by the image border.
+    """
     H, W = params.image_size
     g = frame_geometry(specs, params, _frames(specs, None), (H, W))
     stacked, tops = _canvases(g)
-    clip_lo, clip_hi = np.maximum(g.lo, 0), np.minimum(g.hi, [W, H])
-    whole = (clip_lo == g.lo).all(axis=1) & (clip_hi == g.hi).all(axis=1) & (g.dilate | (g.k == 0))
-    out: list[tuple[np.ndarray, int, int, bool] | None] = []
-    for f in range(len(tops)):
-        (x0, y0), (cx0, cy0), (cx1, cy1) = g.lo[f], clip_lo[f], clip_hi[f]
-        drawn = cx0 < cx1 and cy0 < cy1
-        box = stacked[tops[f] + cy0 - y0 : tops[f] + cy1 - y0, cx0 - x0 : cx1 - x0]
-        out.append((box, int(cx0), int(cy0), bool(whole[f])) if drawn else None)
-    return out
+    lo, hi = np.maximum(g.lo, 0), np.minimum(g.hi, [W, H])
+    whole = (lo == g.lo).all(axis=1) & (hi == g.hi).all(axis=1) & (g.dilate | (g.k == 0))
+    return FrameBoxes(stacked, tops + lo[:, 1] - g.lo[:, 1], lo[:, 0] - g.lo[:, 0], lo, hi,
+                      (lo < hi).all(axis=1), whole)
 
 
 def render_shrunk(

@@ -15,10 +15,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..store.digest import example_digest, padded_frame_digest
+from ..store.digest import example_digest, padded_frame_digests
 from ..store.masks import FrameStats, largest_region, packed_width
 from ..store.shard_writer import ShardChunks
-from .batch_render import render_boxes
+from .batch_render import FrameBoxes, render_boxes
 from .kernel import kernel
 from .object_model import ExampleSpec, sample_examples
 from .params import GeneratorParams
@@ -62,7 +62,7 @@ def run_shard(task: ShardTask) -> ShardResult:
 
     Allocation-light: each example's frames are packed into this thread's reused packed-example
     buffer (zeroed again where drawn), compressed as soon as it is packed, and each frame's
-    digest hashes only its drawn rows and the zero rows below them (`padded_frame_digest`).
+    digest hashes only its drawn rows and the zero rows below them (`padded_frame_digests`).
     """
     p = task.params
     n, (H, W) = p.n_obs, p.image_size
@@ -72,67 +72,80 @@ def run_shard(task: ShardTask) -> ShardResult:
     digests = []
     ids = example_ids(task.split, task.count, task.start, task.stop)
     chunks = ShardChunks(task.fmt, n)
-    measured = np.empty(5, np.int64)
+    measured = np.empty((n, 5), np.int64)  # per frame: area, then the object's x0, y0, x1, y1
     with _buffer(n, H, W) as packed:
-        for e, spec, boxes in _drawn(p, task.seed, task.start, task.stop):
-            z[e * n : (e + 1) * n] = spec.z
-            drawn, frame_digests = [], []
-            for i, box in enumerate(boxes):  # render.render_frame's pixels
-                y0 = y1 = 0
-                if box is not None:
-                    pixels, x0, y0, one_region = box
-                    y1 = y0 + pixels.shape[0]
-                    _pack_box(pixels, x0, y0, packed[i], measured)
-                    f, (area, bx0, by0, bx1, by1) = e * n + i, measured
-                    stats.area[f], stats.largest_area[f], stats.bbox[f] = area, area, measured[1:]
-                    if area and not one_region:  # eroded or cut: maybe several regions
-                        object_pixels = pixels[by0 - y0 : by1 - y0, bx0 - x0 : bx1 - x0]
-                        stats.largest_area[f] = largest_region(object_pixels, int(area))
-                    drawn.append(packed[i, y0:y1])
-                frame_digests.append(padded_frame_digest(packed[i, y0:y1], y0, H, spec.z[i], spec.z[i]))
+        for e, spec, boxes, b in _drawn(p, task.seed, task.start, task.stop):
+            f, mine = slice(e * n, (e + 1) * n), slice(b, b + n)
+            z[f] = spec.z
+            drawn = boxes.drawn[mine]
+            _pack_boxes(boxes.image, boxes.top[mine], boxes.left[mine], boxes.lo[mine], boxes.hi[mine], drawn,
+                        packed, measured)
+            stats.area[f] = stats.largest_area[f] = measured[:, 0]
+            stats.bbox[f] = measured[:, 1:]
+            for i in np.flatnonzero(~boxes.one_region[mine] & (measured[:, 0] > 0)).tolist():  # eroded or cut
+                stats.largest_area[e * n + i] = _largest_region(boxes, b + i, measured[i])
             chunks.add(packed)
-            for rows in drawn:
-                rows[...] = 0
-            fd = np.frombuffer(b"".join(frame_digests), np.uint8).reshape(n, 32)
+            y0, y1 = np.where(drawn, boxes.lo[mine, 1], 0), np.where(drawn, boxes.hi[mine, 1], 0)
+            fd = padded_frame_digests(packed, y0.tolist(), y1.tolist(), spec.z, spec.z)
             digests.append(example_digest(ids[e], SOURCE, spec.z[0], fd))
+            _clear_rows(packed, y0, y1)
     result = ShardResult(task.start, task.stop, z, stats, digests)
     result.deflated_chunks = chunks.write(task.path, task.start * n)
     return result
 
 
 @kernel
-def _pack_box(pixels, x0, y0, packed, measured):
-    """OR the 0/1 `pixels`, a box at (x0, y0) of a frame, into the frame's packed rows (most
-    significant bit first); measured = area, then the object's x0, y0, x1, y1 (zeros if none)."""
-    area, lx, ly, hx, hy = 0, pixels.shape[1], pixels.shape[0], -1, -1
-    for r in range(pixels.shape[0]):
-        row, out, first, last = pixels[r], packed[y0 + r], -1, -1
-        for c in range(pixels.shape[1]):
-            if row[c]:
-                x = x0 + c
-                out[x >> 3] |= 0x80 >> (x & 7)
-                area += 1
-                first, last = c if first < 0 else first, c
-        if first >= 0:
-            lx, hx, ly, hy = min(lx, first), max(hx, last), min(ly, r), r
-    measured[0] = area
-    if area:
-        measured[1], measured[2], measured[3], measured[4] = x0 + lx, y0 + ly, x0 + hx + 1, y0 + hy + 1
-    else:
-        measured[1:] = 0
+def _pack_boxes(image, top, left, lo, hi, drawn, packed, measured):
+    """Pack the first len(packed) frames' boxes (render_boxes) into the zero rows of `packed`,
+    each frame (H, ceil(W/8)) most significant bit first; measured[i] = frame i's area, then
+    its object's x0, y0, x1, y1 (zeros if none)."""
+    for i in range(len(packed)):
+        area, lx, ly, hx, hy = 0, hi[i, 0], hi[i, 1], -1, -1
+        if drawn[i]:
+            (x0, y0), w = lo[i], hi[i, 0] - lo[i, 0]
+            for r in range(hi[i, 1] - y0):
+                row, out, first, last = image[top[i] + r, left[i] : left[i] + w], packed[i, y0 + r], -1, -1
+                for c in range(w):
+                    if row[c]:
+                        x = x0 + c
+                        out[x >> 3] |= 0x80 >> (x & 7)
+                        area += 1
+                        first, last = c if first < 0 else first, c
+                if first >= 0:
+                    lx, hx, ly, hy = min(lx, x0 + first), max(hx, x0 + last), min(ly, y0 + r), y0 + r
+        measured[i, 0] = area
+        if area:
+            measured[i, 1], measured[i, 2], measured[i, 3], measured[i, 4] = lx, ly, hx + 1, hy + 1
+        else:
+            measured[i, 1:] = 0
+
+
+def _largest_region(boxes: FrameBoxes, f: int, measured: np.ndarray) -> int:
+    """The largest 8-connected region of frame f's object, whose area and bounding box are
+    `measured`."""
+    area, x0, y0, x1, y1 = measured
+    bx, by = boxes.lo[f]
+    return largest_region(boxes.pixels(f)[y0 - by : y1 - by, x0 - bx : x1 - bx], int(area))
+
+
+@kernel
+def _clear_rows(packed, y0, y1):
+    """Zero rows y0[i] .. y1[i] of each frame i of `packed`."""
+    for i in range(len(packed)):
+        packed[i, y0[i] : y1[i]] = 0
 
 
 def _drawn(
     p: GeneratorParams, seed: int, start: int, stop: int
-) -> Iterator[tuple[int, ExampleSpec, list[tuple[np.ndarray, int, int, bool] | None]]]:
-    """(position in the shard, draws, render_boxes of its frames) of examples start..stop-1,
-    all sampled together and rendered DRAW_CHUNK examples at a time."""
+) -> Iterator[tuple[int, ExampleSpec, FrameBoxes, int]]:
+    """(position in the shard, draws, render_boxes of its chunk, its first frame there) of
+    examples start..stop-1, all sampled together and rendered DRAW_CHUNK examples at a time."""
     specs = sample_examples(p, seed, range(start, stop))
     for a in range(0, len(specs), DRAW_CHUNK):
         chunk = specs[a : a + DRAW_CHUNK]
         boxes = render_boxes(chunk, p)
         for j, spec in enumerate(chunk):
-            yield a + j, spec, boxes[j * p.n_obs : (j + 1) * p.n_obs]
+            yield a + j, spec, boxes, j * p.n_obs
 
 
 _reused = threading.local()  # per thread: a Dask worker may run several tasks at once

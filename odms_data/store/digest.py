@@ -54,18 +54,24 @@ def _zero_rows(height: int, row_bytes: int) -> tuple[list, memoryview]:
     return states, zeros
 
 
-def padded_frame_digest(rows: np.ndarray, y0: int, height: int, z: float, depth: float) -> bytes:
-    """The frame digest (`frame_digests`) of a packed frame of `height` rows that is zero but for
-    `rows` (k, row_bytes), its rows y0 .. y0 + k, without building the frame: the state after the
-    zero rows above is computed once and copied, the zero rows below come from a shared buffer."""
-    k, row_bytes = rows.shape
+def padded_frame_digests(
+    packed: np.ndarray, y0: list[int], y1: list[int], z: np.ndarray, depth: np.ndarray
+) -> np.ndarray:
+    """`frame_digests` of packed frames (k, height, row_bytes) that are zero but for rows
+    y0[i] .. y1[i] of frame i, hashing only those rows and the zero rows below them: the state
+    after the zero rows above is computed once and copied, the zero rows below come from a
+    shared buffer."""
+    k, height, row_bytes = packed.shape
     states, zeros = _zero_rows(height, row_bytes)
-    h = states[y0].copy()
-    h.update(np.ascontiguousarray(rows).data)
-    h.update(zeros[: (height - y0 - k) * row_bytes])
-    for v in (z, depth):
-        h.update(struct.pack("<d", v) if v == v else CANONICAL_NAN)
-    return h.digest()
+    tails = memoryview(_f64(np.stack([z, depth], axis=1)))
+    out = np.empty((k, 32), np.uint8)
+    for i in range(k):
+        h = states[y0[i]].copy()
+        h.update(packed[i, y0[i] : y1[i]].data)
+        h.update(zeros[: (height - y1[i]) * row_bytes])
+        h.update(tails[16 * i : 16 * i + 16])
+        out[i] = np.frombuffer(h.digest(), np.uint8)
+    return out
 
 
 def example_digest(example_id: str, source: str, d1: float, frames: np.ndarray) -> bytes:

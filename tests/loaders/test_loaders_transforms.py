@@ -116,19 +116,19 @@ def test_boxes_are_what_render_frame_draws(params):
     specs = [sample_example(params, 14, index) for index in range(30)]
     boxes = render_boxes(specs, params)
     n, split = params.n_obs, 0
-    assert len(boxes) == len(specs) * n
-    for f, drawn in enumerate(boxes):
+    assert len(boxes.drawn) == len(specs) * n
+    for f, drawn in enumerate(boxes.drawn):
         want = np.zeros(params.image_size, np.uint8)
         box = render_frame(specs[f // n], params, f % n, want)
+        assert drawn == (box is not None)
         if box is None:
-            assert drawn is None
             continue
         got = np.zeros_like(want)
-        pixels, x0, y0, one_region = drawn
-        got[y0 : y0 + pixels.shape[0], x0 : x0 + pixels.shape[1]] = pixels
-        assert (x0, y0, x0 + pixels.shape[1], y0 + pixels.shape[0]) == box and np.array_equal(got, want)
+        (x0, y0), (x1, y1) = boxes.lo[f], boxes.hi[f]
+        got[y0:y1, x0:x1] = boxes.pixels(f)
+        assert (x0, y0, x1, y1) == box and np.array_equal(got, want)
         stats = stats_of(want[None])
-        if one_region:  # the generator then skips counting regions
+        if boxes.one_region[f]:  # the generator then skips counting regions
             assert stats.largest_area[0] == stats.area[0]
         split += stats.largest_area[0] < stats.area[0]
     assert split or params.perturb_std == 0  # eroded or cut frames in several regions exist

@@ -14,7 +14,7 @@ from odms_data.simulate.object_model import sample_example
 from odms_data.simulate.params import GENERATOR_VERSION, PRESETS
 from odms_data.simulate.render import render_masks
 from odms_data.store.convert import convert
-from odms_data.store.digest import frame_digests, padded_frame_digest
+from odms_data.store.digest import frame_digests, padded_frame_digests
 from odms_data.store.masks import pack, stats_of, unpack
 from odms_data.store.reader import open_store
 from odms_data.store.validate import validate
@@ -37,14 +37,16 @@ def test_pack_unpack_round_trip_for_odd_widths():
         np.testing.assert_array_equal(unpack(pack(m), width), m)
 
 
-@pytest.mark.parametrize("y0, y1", [(0, 0), (0, 7), (3, 5), (6, 9), (0, 9), (9, 9)])
-def test_a_frame_digest_from_its_drawn_rows_equals_the_whole_frames(y0, y1):
-    rng = np.random.default_rng(y0 * 10 + y1)
-    frame = np.zeros((1, 9, 5), np.uint8)
-    frame[0, y0:y1] = rng.integers(0, 256, (y1 - y0, 5), dtype=np.uint8)
-    for z, depth in [(0.25, 0.25), (0.5, float("nan"))]:
-        whole = frame_digests(frame, np.array([z]), np.array([depth]))[0].tobytes()
-        assert padded_frame_digest(frame[0, y0:y1], y0, 9, z, depth) == whole
+def test_frame_digests_from_their_drawn_rows_equal_the_whole_frames():
+    rows = [(0, 0), (0, 7), (3, 5), (6, 9), (0, 9), (9, 9)]
+    rng = np.random.default_rng(0)
+    frames = np.zeros((len(rows), 9, 5), np.uint8)
+    for frame, (y0, y1) in zip(frames, rows, strict=True):
+        frame[y0:y1] = rng.integers(0, 256, (y1 - y0, 5), dtype=np.uint8)
+    y0, y1 = (list(ends) for ends in zip(*rows, strict=True))
+    z, depth = rng.random(len(rows)), np.where(np.arange(len(rows)) % 2, np.nan, 0.25)
+    whole = frame_digests(frames, z, depth)
+    np.testing.assert_array_equal(padded_frame_digests(frames, y0, y1, z, depth), whole)
 
 
 def test_store_holds_what_the_generator_draws(small_zarr):
