@@ -7,9 +7,9 @@ worker processes'. The baseline renders masks the way the paper's released gener
 (dense Bezier points marked on a float32 image, holes filled), without writing anything: an
 upper bound on that approach's throughput. The floor is the work no generator of these stores
 avoids, in one process: cv2.fillPoly of each frame's polygon (its vertices computed beforehand),
-packing the drawn rows and compressing each example's chunk with zstd; "x floor" is the
-command's CPU-seconds per example (its start-up included) over the floor's, "x baseline" the
-command's examples per CPU-second over the baseline's.
+packing the drawn rows and compressing each example's chunk with zstd, the fastest of three
+passes; "x floor" is the command's CPU-seconds per example (its start-up included) over the
+floor's, "x baseline" the command's examples per CPU-second over the baseline's.
 """
 
 from __future__ import annotations
@@ -68,17 +68,20 @@ def floor_examples_per_cpu_second(preset: str, count: int) -> float:
     frame = np.zeros((H, W), np.uint8)
     packed = np.zeros((p.n_obs, H, (W + 7) // 8), np.uint8)
     zstd = zstandard.ZstdCompressor(level=3, write_checksum=True)
-    t = time.process_time()
-    for e in range(count):
-        for i in range(p.n_obs):
-            poly = polygons[e * p.n_obs + i]
-            cv2.fillPoly(frame, [poly], 1, cv2.LINE_8, 4)
-            y0, y1 = max(0, int(poly[:, 1].min()) // 16 - 1), min(H, int(poly[:, 1].max()) // 16 + 2)
-            packed[i, y0:y1] = np.packbits(frame[y0:y1], axis=-1)
-            frame[y0:y1] = 0
-        zstd.compress(packed.data)
-        packed[...] = 0
-    return count / (time.process_time() - t)
+    best = np.inf
+    for _ in range(3):  # the fastest of three: one pass moved by a third between runs
+        t = time.process_time()
+        for e in range(count):
+            for i in range(p.n_obs):
+                poly = polygons[e * p.n_obs + i]
+                cv2.fillPoly(frame, [poly], 1, cv2.LINE_8, 4)
+                y0, y1 = max(0, int(poly[:, 1].min()) // 16 - 1), min(H, int(poly[:, 1].max()) // 16 + 2)
+                packed[i, y0:y1] = np.packbits(frame[y0:y1], axis=-1)
+                frame[y0:y1] = 0
+            zstd.compress(packed.data)
+            packed[...] = 0
+        best = min(best, time.process_time() - t)
+    return count / best
 
 
 def children_cpu() -> float:
