@@ -1,6 +1,6 @@
 """TensorFlow: `tf.data.Dataset`s of batches from a store or from the generator.
 
-    from odms_data.loaders.tf import from_generator
+    from odms_data.loaders.tf_loader import from_generator
     ds = from_generator(512, 5000, seed=1, workers=2).prefetch(2)
     for batch in ds: ...  # dict of tensors, batch["masks"]: (512, 10, 112, 112) float32
 
@@ -18,7 +18,7 @@ try:
     import tensorflow as tf
 except ImportError as e:  # pragma: no cover - depends on the environment
     raise ImportError(
-        "odms_data.loaders.tf needs TensorFlow: pip install 'odms-data[tf]' (see README.md)"
+        "odms_data.loaders.tf_loader needs TensorFlow: pip install 'odms-data[tf]' (see README.md)"
     ) from e
 
 
