@@ -133,7 +133,7 @@ def main() -> None:
         t = Transform(size=size, rounded=rounded)
         b = B if size else 16  # a batch of 480x640 masks is 3 MB an example
         for workers in (0, 2):
-            batches = stream_batches(b, nb * B // b // (1 if size else 4), params=PARAMS, transform=t,
+            batches = stream_batches(b, max(8, nb * B // b // (1 if size else 4)), params=PARAMS, transform=t,
                                      direct=direct, workers=workers)
             record(f"numpy stream {label}, workers={workers}", rate(batches, b, workers))
     has_torch = importlib.util.find_spec("torch") is not None
