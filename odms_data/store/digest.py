@@ -18,7 +18,6 @@ from .format import decode_strings
 
 DIGEST_PREFIX = b"odms-store-content/1"
 BLOCK_FRAMES = 1024  # frames read at a time when streaming a store
-CANONICAL_NAN = bytes.fromhex("000000000000f87f")  # how every NaN is hashed: 0x7ff8000000000000
 
 if TYPE_CHECKING:
     from .reader import Store
