@@ -162,15 +162,20 @@ def _canvases(g: FrameGeometry) -> tuple[np.ndarray, np.ndarray]:
 class FrameBoxes:
     """What `render.render_frame` draws into each full-size frame of several examples
     (example-major): frame f's pixels are the box of `image` from row top[f] and column left[f],
-    of size hi[f] - lo[f], placed at lo[f] (x0, y0) of the frame; nothing where not drawn[f]."""
+    of size hi[f] - lo[f], placed at lo[f] (x0, y0) of the frame; an empty box at (0, 0) where
+    it draws nothing."""
 
     image: np.ndarray  # the frames' canvases stacked, uint8 0/1
     top: np.ndarray  # (F,) int64
     left: np.ndarray  # (F,) int64
     lo: np.ndarray  # (F, 2) int64, clipped to the frame
     hi: np.ndarray  # (F, 2) int64, exclusive
-    drawn: np.ndarray  # (F,) bool: render_frame draws into the frame (lo < hi on both axes)
     one_region: np.ndarray  # (F,) bool: the object is known to be one 8-connected region
+
+    @property
+    def drawn(self) -> np.ndarray:
+        """(F,) bool: render_frame draws into the frame."""
+        return np.all(self.lo < self.hi, axis=1)
 
     def pixels(self, f: int) -> np.ndarray:
         """Frame f's box of pixels (a view of `image`)."""
@@ -189,8 +194,10 @@ def render_boxes(specs: Sequence[ExampleSpec], params: GeneratorParams) -> Frame
     stacked, tops = _canvases(g)
     lo, hi = np.maximum(g.lo, 0), np.minimum(g.hi, [W, H])
     whole = (lo == g.lo).all(axis=1) & (hi == g.hi).all(axis=1) & (g.dilate | (g.k == 0))
-    return FrameBoxes(stacked, tops + lo[:, 1] - g.lo[:, 1], lo[:, 0] - g.lo[:, 0], lo, hi,
-                      (lo < hi).all(axis=1), whole)
+    top, left = tops + lo[:, 1] - g.lo[:, 1], lo[:, 0] - g.lo[:, 0]
+    outside = (lo >= hi).any(axis=1)  # wholly outside the frame: an empty box at (0, 0)
+    lo[outside] = hi[outside] = 0
+    return FrameBoxes(stacked, top, left, lo, hi, whole)
 
 
 def render_shrunk(

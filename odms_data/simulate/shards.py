@@ -77,15 +77,14 @@ def run_shard(task: ShardTask) -> ShardResult:
         for e, spec, boxes, b in _drawn(p, task.seed, task.start, task.stop):
             f, mine = slice(e * n, (e + 1) * n), slice(b, b + n)
             z[f] = spec.z
-            drawn = boxes.drawn[mine]
-            _pack_boxes(boxes.image, boxes.top[mine], boxes.left[mine], boxes.lo[mine], boxes.hi[mine], drawn,
+            _pack_boxes(boxes.image, boxes.top[mine], boxes.left[mine], boxes.lo[mine], boxes.hi[mine],
                         packed, measured)
             stats.area[f] = stats.largest_area[f] = measured[:, 0]
             stats.bbox[f] = measured[:, 1:]
             for i in np.flatnonzero(~boxes.one_region[mine] & (measured[:, 0] > 0)).tolist():  # eroded or cut
-                stats.largest_area[e * n + i] = _largest_region(boxes, b + i, measured[i])
+                stats.largest_area[f.start + i] = _largest_region(boxes, b + i, measured[i])
             chunks.add(packed)
-            y0, y1 = np.where(drawn, boxes.lo[mine, 1], 0), np.where(drawn, boxes.hi[mine, 1], 0)
+            y0, y1 = boxes.lo[mine, 1], boxes.hi[mine, 1]
             fd = padded_frame_digests(packed, y0.tolist(), y1.tolist(), spec.z, spec.z)
             digests.append(example_digest(ids[e], SOURCE, spec.z[0], fd))
             _clear_rows(packed, y0, y1)
@@ -95,24 +94,23 @@ def run_shard(task: ShardTask) -> ShardResult:
 
 
 @kernel
-def _pack_boxes(image, top, left, lo, hi, drawn, packed, measured):
+def _pack_boxes(image, top, left, lo, hi, packed, measured):
     """Pack the first len(packed) frames' boxes (render_boxes) into the zero rows of `packed`,
     each frame (H, ceil(W/8)) most significant bit first; measured[i] = frame i's area, then
     its object's x0, y0, x1, y1 (zeros if none)."""
     for i in range(len(packed)):
         area, lx, ly, hx, hy = 0, hi[i, 0], hi[i, 1], -1, -1
-        if drawn[i]:
-            (x0, y0), w = lo[i], hi[i, 0] - lo[i, 0]
-            for r in range(hi[i, 1] - y0):
-                row, out, first, last = image[top[i] + r, left[i] : left[i] + w], packed[i, y0 + r], -1, -1
-                for c in range(w):
-                    if row[c]:
-                        x = x0 + c
-                        out[x >> 3] |= 0x80 >> (x & 7)
-                        area += 1
-                        first, last = c if first < 0 else first, c
-                if first >= 0:
-                    lx, hx, ly, hy = min(lx, x0 + first), max(hx, x0 + last), min(ly, y0 + r), y0 + r
+        (x0, y0), w = lo[i], hi[i, 0] - lo[i, 0]
+        for r in range(hi[i, 1] - y0):
+            row, out, first, last = image[top[i] + r, left[i] : left[i] + w], packed[i, y0 + r], -1, -1
+            for c in range(w):
+                if row[c]:
+                    x = x0 + c
+                    out[x >> 3] |= 0x80 >> (x & 7)
+                    area += 1
+                    first, last = c if first < 0 else first, c
+            if first >= 0:
+                lx, hx, ly, hy = min(lx, x0 + first), max(hx, x0 + last), min(ly, y0 + r), y0 + r
         measured[i, 0] = area
         if area:
             measured[i, 1], measured[i, 2], measured[i, 3], measured[i, 4] = lx, ly, hx + 1, hy + 1
