@@ -43,7 +43,7 @@ def workers_for(work_s: float, most: int) -> int:
     return max(1, min(most, int(work_s / WORK_PER_WORKER_S)))
 
 
-def spawn_pool(
+def worker_pool(
     workers: int, initializer: Callable[..., None] | None = None, initargs: tuple[Any, ...] = ()
 ) -> ProcessPoolExecutor:
     """A pool of `workers` spawned processes, each running `initializer(*initargs)` first."""

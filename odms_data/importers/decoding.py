@@ -19,7 +19,7 @@ from typing import TypeVar
 import numpy as np
 
 from ..errors import InputError
-from ..parallel import ordered_map, spawn_pool
+from ..parallel import ordered_map, worker_pool
 from ..store.digest import frame_digests
 from ..store.masks import FrameStats, pack, packed_width
 from ..store.writer import write_shard_masks
@@ -119,7 +119,7 @@ class Workers:
 
     def __enter__(self) -> Workers:
         if self.n > 1:
-            self.pool = spawn_pool(self.n, _silence_worker)
+            self.pool = worker_pool(self.n, _silence_worker)
         return self
 
     def __exit__(self, *exc) -> None:

@@ -20,7 +20,7 @@ from contextlib import closing
 import numpy as np
 
 from ..errors import InputError
-from ..parallel import ordered_map, spawn_pool
+from ..parallel import ordered_map, worker_pool
 from ..simulate.params import GeneratorParams
 from .reused_arrays import ReusedArrays
 from .shared_batches import Arena, BlockPool
@@ -80,7 +80,7 @@ class Batches:
                 if not future.cancel() and future.exception() is None:
                     blocks.give_back(future.result()[0], lent)
 
-        with spawn_pool(self.workers, _set_source, (self.source,)) as pool:
+        with worker_pool(self.workers, _set_source, (self.source,)) as pool:
             try:
                 with closing(ordered_map(submit, collect, self.plan, 2 * self.workers, abandon)) as batches:
                     for batch in batches:

@@ -16,7 +16,7 @@ from contextlib import closing
 import numpy as np
 
 from ..errors import InputError
-from ..parallel import cores, ordered_map, spawn_pool, workers_for
+from ..parallel import cores, ordered_map, worker_pool, workers_for
 from ..store.digest import StoreDigest
 from ..store.format import StoreAttrs
 from ..store.masks import packed_width
@@ -50,7 +50,7 @@ def _run_local(tasks: Iterable[ShardTask], workers: int) -> Iterator[ShardResult
     if workers <= 1:
         yield from map(run_shard, tasks)
         return
-    with spawn_pool(workers) as pool:
+    with worker_pool(workers) as pool:
         yield from ordered_map(lambda t: pool.submit(run_shard, t), Future.result, tasks, 2 * workers)
 
 
