@@ -1,21 +1,22 @@
 """Generation throughput and peak memory, against a baseline measured in the same run.
 
-Run by hand: `python benchmarks/generate.py [--count 4000]`. Each configuration runs
-`odms-data generate` in a subprocess (n = 10, 480x640, writing a store); peak RSS is the
-largest sum over the process tree, sampled every 20 ms; CPU-seconds are the command's and its
-worker processes'. The baseline renders masks the way the paper's released generator does
-(dense Bezier points marked on a float32 image, holes filled), without writing anything: an
-upper bound on that approach's throughput. The floor is the work no generator of these stores
-avoids, in one process: cv2.fillPoly of each frame's polygon (its vertices computed beforehand),
-packing the drawn rows and compressing each example's chunk with zstd, the fastest of three
-passes; "x floor" is the command's CPU-seconds per example (its start-up included) over the
-floor's, "x baseline" the command's examples per CPU-second over the baseline's.
+Run by hand: `python benchmarks/generate.py [--count 4000]`. Each configuration runs `odms-data
+generate` in a subprocess (n = 10, 480x640, writing a store); peak RSS is the largest sum over
+the process tree, sampled every 20 ms; CPU-seconds are the whole machine's busy time while the
+command runs (its workers are forked by a fork server that it does not wait for, so its own
+accounting misses them): run it on an otherwise idle machine. The baseline renders masks the way
+the paper's released generator does (dense Bezier points marked on a float32 image, holes
+filled), without writing anything: an upper bound on that approach's throughput. The floor is
+the work no generator of these stores avoids, in one process: cv2.fillPoly of each frame's
+polygon (its vertices computed beforehand), packing the drawn rows and compressing each
+example's chunk with zstd, the fastest of three passes; "x floor" is the command's CPU-seconds
+per example (its start-up included) over the floor's, "x baseline" the command's examples per
+CPU-second over the baseline's.
 """
 
 from __future__ import annotations
 
 import argparse
-import resource
 import shutil
 import subprocess
 import sys
@@ -84,14 +85,15 @@ def floor_examples_per_cpu_second(preset: str, count: int) -> float:
     return count / best
 
 
-def children_cpu() -> float:
-    r = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return r.ru_utime + r.ru_stime
+def busy_cpu_seconds() -> float:
+    """CPU-seconds the machine has spent on anything but idling and waiting for I/O."""
+    t = psutil.cpu_times()
+    return t.user + t.nice + t.system + t.irq + t.softirq
 
 
 def run(args: list[str]) -> tuple[float, float, float]:
     """Wall seconds, CPU-seconds and peak RSS (MB, whole process tree) of one odms-data command."""
-    c0, t = children_cpu(), time.perf_counter()
+    c0, t = busy_cpu_seconds(), time.perf_counter()
     proc = psutil.Popen([sys.executable, "-m", "odms_data.cli", *args],
                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     peak = 0
@@ -104,7 +106,7 @@ def run(args: list[str]) -> tuple[float, float, float]:
         time.sleep(0.02)
     if proc.returncode:
         raise SystemExit(f"odms-data {' '.join(args)} failed with exit code {proc.returncode}")
-    return time.perf_counter() - t, children_cpu() - c0, peak / 2**20
+    return time.perf_counter() - t, busy_cpu_seconds() - c0, peak / 2**20
 
 
 def main() -> None:
