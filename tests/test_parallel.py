@@ -1,4 +1,5 @@
-"""Worker processes exit with the process that started them, even when it is SIGKILLed."""
+"""Worker processes start warm and exit with the process that started them, even when it is
+SIGKILLed."""
 
 from __future__ import annotations
 
@@ -35,9 +36,10 @@ def alive(pid: int) -> bool:
     return s is not None and s[0] != "Z"
 
 
-def children(pid: int) -> list[int]:
+def descendants(pid: int) -> list[int]:
     found = [int(p.name) for p in Path("/proc").iterdir() if p.name.isdigit()]
-    return [p for p in found if (state(p) or ("", 0))[1] == pid]
+    children = [p for p in found if (state(p) or ("", 0))[1] == pid]
+    return children + [d for c in children for d in descendants(c)]
 
 
 def kill_and_wait(parent: subprocess.Popen, workers: list[int], shm_before: set[str]) -> None:
@@ -56,8 +58,8 @@ def test_loader_workers_and_their_blocks_go_when_the_parent_is_killed():
         [sys.executable, "-c", LOADER], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
     )
     assert parent.stdout.readline().strip() == "started"
-    workers = children(parent.pid)  # the two workers and multiprocessing's resource tracker
-    assert len(workers) == 3 and all(alive(p) for p in workers)
+    workers = descendants(parent.pid)  # multiprocessing's resource tracker and fork server, two workers
+    assert len(workers) == 4 and all(alive(p) for p in workers)
     assert set(os.listdir("/dev/shm")) - before  # the blocks carrying batches
     kill_and_wait(parent, workers, before)
     assert not any(alive(p) for p in workers)
@@ -71,9 +73,9 @@ def test_generate_workers_go_when_the_command_is_killed(tmp_path):
     command = [cli, "generate", "-n", "1000000", "--workers", "2", "-o", tmp_path / "big.zarr"]
     parent = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.monotonic() + 60
-    while len(workers := children(parent.pid)) < 3 and time.monotonic() < deadline:
+    while len(workers := descendants(parent.pid)) < 4 and time.monotonic() < deadline:
         time.sleep(0.1)
-    assert len(workers) == 3
+    assert len(workers) == 4
     kill_and_wait(parent, workers, set(os.listdir("/dev/shm")))
     assert not any(alive(p) for p in workers)
 
@@ -123,6 +125,20 @@ def test_ordered_map_asks_a_callable_bound_at_every_top_up_and_abandons_the_rest
     assert submitted == [0, 1, 2, 3, 4, 5, 6]  # at most 1, then 2, then 4 pending after each top-up
     results.close()
     assert abandoned == [3, 4, 5, 6]
+
+
+def _kernel_loaded(_: int) -> bool:
+    """Whether this process has the shard task's packing kernel compiled or loaded (this test
+    module does not import the renderer, so only the fork server's preload can have)."""
+    shards = sys.modules.get("odms_data.simulate.shards")
+    return shards is not None and bool(shards._pack_boxes.signatures)
+
+
+def test_workers_start_with_the_renderer_and_its_kernels_loaded():
+    from odms_data.parallel import worker_pool
+
+    with worker_pool(2) as pool:
+        assert list(pool.map(_kernel_loaded, range(4))) == [True] * 4
 
 
 # --- how many workers a job is worth ----------------------------------------------------------

@@ -1,0 +1,30 @@
+"""Imported by the fork server that worker pools fork their workers from (parallel.worker_pool):
+the renderer's imports and compiled kernels, loaded there once, so that every worker starts warm.
+
+A spawned worker spent 1.6 CPU-seconds (2-core machine) importing the renderer and loading its
+kernels before its first task; a forked one inherits them. Importing this module runs each kernel
+once, on the paths the generator and the loaders take: one example generated (not written) and
+one drawn at training size as coverage and as 0/1 masks.
+"""
+
+from __future__ import annotations
+
+from .batch_render import render_masks, render_shrunk
+from .object_model import sample_examples
+from .params import PRESETS
+from .shards import ShardTask, run_shard
+
+TRAINING_SIZE = (112, 112)
+
+
+def warm() -> None:
+    """Run each kernel once (Numba loads a kernel's machine code on its first call)."""
+    params = PRESETS["perturb"]
+    run_shard(ShardTask("", "hdf5", params, 0, "warm", 1, 0, 1))  # HDF5: the chunks come back, unwritten
+    specs = sample_examples(params, 0, range(1))
+    render_shrunk(specs, params, TRAINING_SIZE, None, True)
+    render_shrunk(specs, params, TRAINING_SIZE, None, False)
+    render_masks(specs, params, TRAINING_SIZE)
+
+
+warm()
