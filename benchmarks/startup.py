@@ -8,7 +8,7 @@ tree first on PYTHONPATH (and the working directory outside both trees):
 - `odms-data --help` (`python -m odms_data.cli --help`);
 - `python -c "import odms_data"`;
 - `python -c "import odms_data.store.masks"` here, `import odms_data.masks` there (one small
-  module: what a spawned worker pays to unpickle a task that names it).
+  module: what a worker that has not loaded it pays to unpickle a task that names it).
 
 Medians of --repeat runs, wall time, with the number of odms_data modules each import loads.
 """

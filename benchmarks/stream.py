@@ -10,8 +10,8 @@ rounded (Transform(rounded=True)); "direct" draws uint8 masks straight at 112x11
 the naive streaming path: draw each mask at 480x640 with render.render_masks and shrink it to
 112x112. Timing starts once the batches asked for before the first one arrived have come too
 (1 + 2 x the workers or threads, the most any loader here has under way at the start): every
-worker has then started and loaded its kernels, which alone costs each about half a CPU-second
-and, counted, put the 2-worker rows of an 8,192-example run at about 60 % of their steady rate.
+worker has then started. A spawned worker loaded its kernels, about half a CPU-second each, which,
+counted, put the 2-worker rows of an 8,192-example run at about 60 % of their steady rate.
 Batches under way when timing starts are counted without the CPU spent on them before: parallel
 rows read high by at most those batches over the batches of the run. grain reads with `threads`
 threads and a prefetch buffer of as many batches, in-process or in mp_prefetch workers.
@@ -19,7 +19,7 @@ threads and a prefetch buffer of as many batches, in-process or in mp_prefetch w
 CPU-seconds are those of the whole process tree (this process and its worker processes, read
 with psutil while they run), over the same span as the wall time: the steady rate that says how
 many cores feed an accelerator. The warm-up column is the CPU-seconds spent before timing starts
-(spawning and importing in each worker, and the first batches).
+(starting the workers, and the first batches).
 """
 
 from __future__ import annotations

@@ -32,7 +32,7 @@ Handle = TypeVar("Handle")
 Result = TypeVar("Result")
 
 uninterrupted = threading.Lock()  # held by a worker around work an exit must not cut in two
-WORKER_START_S = 1.0  # a spawned worker's start-up (interpreter, imports, Numba's cached kernels), 2 cores
+WORKER_START_S = 1.0  # starting workers: the fork server's imports and Numba's cached kernels, 2 cores
 WORK_PER_WORKER_S = 4 * WORKER_START_S  # the least work a worker is started for
 WARM_START = "odms_data.simulate.warm_start"  # what the fork server imports, by name: no import edge
 

@@ -1,5 +1,5 @@
 """A built wheel works wherever pip puts it: installed with --prefix, --target and --user into
-temporary folders, it finds its shipped schemas/ and splits/ (also from spawned workers) and
+temporary folders, it finds its shipped schemas/ and splits/ (also from worker processes) and
 generates a named split whose digest matches its manifest."""
 
 from __future__ import annotations

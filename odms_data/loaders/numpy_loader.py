@@ -4,8 +4,8 @@
     for batch in numpy_loader.stream_batches(512, 5000, seed=1, workers=2):
         x = jax.device_put(batch["masks"])  # (512, 10, 112, 112) float32
 
-Batches are made in order, by the calling process or by `workers` spawned processes with at
-most 2 * workers batches in flight; the content never depends on the number of workers. Workers
+Batches are made in order, by the calling process or by `workers` worker processes (parallel.py)
+with at most 2 * workers batches in flight; the content never depends on the number of workers. Workers
 hand batches over in shared memory blocks that are reused (shared_batches.py): a batch from a
 worker is a set of views of such a block, valid for as long as you keep them. The calling
 process likewise reuses the arrays of batches nothing refers to any more (reused_arrays.py).

@@ -123,7 +123,7 @@ def test_store_handle_is_per_process(store_path):
     first = examples.store
     examples._pid = -1  # as after a fork: the handle belongs to another process
     assert examples.store is not first
-    copy = pickle.loads(pickle.dumps(examples))  # as sent to a spawned worker
+    copy = pickle.loads(pickle.dumps(examples))  # as sent to a worker
     assert copy._store is None
     np.testing.assert_array_equal(copy.example(2)["masks"], examples.example(2)["masks"])
 
