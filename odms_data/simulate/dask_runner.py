@@ -21,7 +21,8 @@ from typing import Any
 from .._version import __version__
 from ..errors import InputError, StoreError
 from ..parallel import ordered_map
-from .shards import ShardResult, ShardTask, run_shard
+from .shard_task import ShardResult, ShardTask
+from .shards import run_shard
 
 RETRIES = 3  # reruns of a task that raised
 CONNECT_TIMEOUT_S = 30

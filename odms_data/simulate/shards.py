@@ -11,7 +11,6 @@ from __future__ import annotations
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -22,39 +21,9 @@ from .batch_render import FrameBoxes, render_boxes
 from .kernel import kernel
 from .object_model import ExampleSpec, sample_examples
 from .params import GeneratorParams
+from .shard_task import SOURCE, ShardResult, ShardTask, example_ids
 
-SOURCE = "generated"
 DRAW_CHUNK = 8  # examples rendered together: fewer calls, the drawing's scratch image a few MB
-
-
-def example_ids(split: str, count: int, start: int, stop: int) -> list[str]:
-    """Ids `<split>/<index>` zero-padded to at least 6 digits."""
-    digits = max(6, len(str(count - 1)))
-    return [f"{split}/{i:0{digits}d}" for i in range(start, stop)]
-
-
-@dataclass
-class ShardTask:
-    """Examples [start, stop) of a generated store, written into the store at `path`."""
-
-    path: str
-    fmt: str
-    params: GeneratorParams
-    seed: int
-    split: str
-    count: int
-    start: int
-    stop: int
-
-
-@dataclass
-class ShardResult:
-    start: int
-    stop: int
-    z: np.ndarray
-    stats: FrameStats
-    example_digests: list[bytes]
-    deflated_chunks: list[bytes] = field(default_factory=list)  # HDF5 only, one per example
 
 
 def run_shard(task: ShardTask) -> ShardResult:

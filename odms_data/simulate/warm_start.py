@@ -12,7 +12,8 @@ from __future__ import annotations
 from .batch_render import render_masks, render_shrunk
 from .object_model import sample_examples
 from .params import PRESETS
-from .shards import ShardTask, run_shard
+from .shard_task import ShardTask
+from .shards import run_shard
 
 TRAINING_SIZE = (112, 112)
 

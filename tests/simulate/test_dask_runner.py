@@ -20,7 +20,8 @@ from odms_data.cli import main
 from odms_data.errors import InputError
 from odms_data.simulate.generate_store import generate
 from odms_data.simulate.params import preset
-from odms_data.simulate.shards import ShardTask, run_shard
+from odms_data.simulate.shard_task import ShardTask
+from odms_data.simulate.shards import run_shard
 from odms_data.store.reader import open_store
 from odms_data.store.validate import validate
 

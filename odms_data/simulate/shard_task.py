@@ -1,0 +1,42 @@
+"""What one shard task of a generated store is and what it returns; shards.py runs it."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..store.masks import FrameStats
+from .params import GeneratorParams
+
+SOURCE = "generated"
+
+
+def example_ids(split: str, count: int, start: int, stop: int) -> list[str]:
+    """Ids `<split>/<index>` zero-padded to at least 6 digits."""
+    digits = max(6, len(str(count - 1)))
+    return [f"{split}/{i:0{digits}d}" for i in range(start, stop)]
+
+
+@dataclass
+class ShardTask:
+    """Examples [start, stop) of a generated store, written into the store at `path`."""
+
+    path: str
+    fmt: str
+    params: GeneratorParams
+    seed: int
+    split: str
+    count: int
+    start: int
+    stop: int
+
+
+@dataclass
+class ShardResult:
+    start: int
+    stop: int
+    z: np.ndarray
+    stats: FrameStats
+    example_digests: list[bytes]
+    deflated_chunks: list[bytes] = field(default_factory=list)  # HDF5 only, one per example
