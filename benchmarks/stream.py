@@ -17,9 +17,9 @@ rows read high by at most those batches over the batches of the run. grain reads
 threads and a prefetch buffer of as many batches, in-process or in mp_prefetch workers.
 
 CPU-seconds are those of the whole process tree (this process and its worker processes, read
-with psutil while they run), over the same span as the wall time: the steady rate that says how
-many cores feed an accelerator. The warm-up column is the CPU-seconds spent before timing starts
-(starting the workers, and the first batches).
+with psutil while they run, each with the children it has reaped), over the same span as the
+wall time: the steady rate that says how many cores feed an accelerator. The warm-up column is
+the CPU-seconds spent before timing starts (starting the workers, and the first batches).
 """
 
 from __future__ import annotations
@@ -45,15 +45,15 @@ PARAMS = GeneratorParams(n_obs=10)
 
 
 def cpu_seconds() -> float:
-    """CPU time of this process, its finished children and its running descendants."""
+    """CPU time of this process and its running descendants, each with that of the children it
+    has reaped (workers forked by multiprocessing's fork server are its children, not ours)."""
+    total = 0.0
     me = psutil.Process()
-    total = sum(me.cpu_times()[:4])  # user, system, and those of the children it has reaped
-    for child in me.children(recursive=True):
+    for process in (me, *me.children(recursive=True)):
         try:
-            times = child.cpu_times()
+            total += sum(process.cpu_times()[:4])  # user, system, and those of its reaped children
         except psutil.NoSuchProcess:
             continue
-        total += times.user + times.system
     return total
 
 
