@@ -12,7 +12,9 @@ the same against those masks filled by OpenCV's flood fill instead, an upper bou
 approach. The floor is the work no generator of these stores avoids, in one process:
 cv2.fillPoly of each frame's polygon (its vertices computed beforehand), packing the drawn rows
 and compressing each example's chunk with zstd, the fastest of three passes; "x floor" is the
-command's CPU-seconds per example (its start-up included) over the floor's.
+command's CPU-seconds per example (its start-up included) over the floor's. The rows "in this
+process, started" time the same pipeline in the benchmark's own process once it has imported
+the package and loaded the kernels (half of --count examples, the fastest of three passes).
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ import psutil
 import scipy.ndimage
 import zstandard
 
+from odms_data.simulate.generate_store import generate
 from odms_data.simulate.object_model import sample_example
 from odms_data.simulate.params import PRESETS
 
@@ -99,6 +102,19 @@ def floor_examples_per_cpu_second(preset: str, count: int) -> float:
     return count / best
 
 
+def in_process_examples_per_cpu_second(preset: str, count: int, folder: Path) -> float:
+    """The whole pipeline in this process once it has started (imports done, kernels loaded):
+    `generate` on one worker into a Zarr store, the fastest of three passes."""
+    params = PRESETS[preset]
+    generate(str(folder / "warm.zarr"), 64, params, 0, workers=1, overwrite=True)
+    best = np.inf
+    for _ in range(3):
+        t = time.process_time()
+        generate(str(folder / "in-process.zarr"), count, params, 0, workers=1, overwrite=True)
+        best = min(best, time.process_time() - t)
+    return count / best
+
+
 def busy_cpu_seconds() -> float:
     """CPU-seconds the machine has spent on anything but idling and waiting for I/O."""
     t = psutil.cpu_times()
@@ -140,6 +156,10 @@ def main() -> None:
     print("{:9} {:6} {:>7} {:>6} {:>8} {:>9} {:>9} {:>8} {:>8} {:>8}".format(*header))
     tmp = Path(tempfile.mkdtemp())
     try:
+        for preset in ("standard", "perturb"):
+            rate = in_process_examples_per_cpu_second(preset, a.count // 2, tmp)
+            print(f"{preset:9} zarr   in this process, started: {rate:9.0f} ex/CPU-s {'':18} "
+                  f"{floor[preset] / rate:8.2f}")
         configs = [(p, "zarr", w, a.count) for p in ("standard", "perturb") for w in (1, 2)]
         configs += [("standard", "hdf5", 2, a.count)]
         configs += [("perturb", "zarr", 2, a.large)] if a.large else []
