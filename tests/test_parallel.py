@@ -172,3 +172,21 @@ def test_generate_chooses_workers_by_the_work_unless_told(tmp_path):
     alive.clear()
     generate(str(tmp_path / "two.zarr"), 16, small, 0, workers=2, examples_per_shard=4, progress=progress)
     assert alive and min(alive) == 2
+
+
+HANDS_OUT = """
+import sys
+from odms_data.simulate.generate_store import generate
+from odms_data.simulate.params import preset
+small = preset("standard", image_size=(60, 80), sizes=(20,))
+generate(sys.argv[1], 16, small, 0, workers=2, examples_per_shard=4)
+print(" ".join(sorted(m for m in ("numba", "cv2") if m in sys.modules)) or "neither")
+"""
+
+
+def test_the_process_handing_out_shard_tasks_does_not_import_the_renderer(tmp_path):
+    run = subprocess.run([sys.executable, "-c", HANDS_OUT, str(tmp_path / "s.zarr")], capture_output=True,
+                         text=True)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip() == "neither"
+    assert (tmp_path / "s.zarr" / "zarr.json").is_file()

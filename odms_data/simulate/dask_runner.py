@@ -1,6 +1,6 @@
 """Running generation's shard tasks on a Dask cluster: `generate(..., scheduler=ADDRESS)`.
 
-The tasks are the ShardTasks of a local run, executed by the same `run_shard`, so the store and
+The tasks are the ShardTasks of a local run, executed by the same `shard_task.run`, so the store and
 its digest do not depend on the cluster. Each task writes its whole Zarr shard of `masks` in one
 store write; a task that raises is retried by Dask (`RETRIES`), one whose worker dies is rerun
 elsewhere (the scheduler's `allowed-failures`), and a rerun rewrites the whole shard. Results are
@@ -21,8 +21,7 @@ from typing import Any
 from .._version import __version__
 from ..errors import InputError, StoreError
 from ..parallel import ordered_map
-from .shard_task import ShardResult, ShardTask
-from .shards import run_shard
+from .shard_task import ShardResult, ShardTask, run
 
 RETRIES = 3  # reruns of a task that raised
 CONNECT_TIMEOUT_S = 30
@@ -90,7 +89,7 @@ def run_tasks(
             return max(4, 2 * sum(client.nthreads().values()))
 
         def submit(task: ShardTask) -> tuple[ShardTask, Any]:
-            return task, client.submit(run_shard, task, retries=RETRIES, pure=False)
+            return task, client.submit(run, task, retries=RETRIES, pure=False)
 
         def collect(handle: tuple[ShardTask, Any]) -> ShardResult:
             t, future = handle

@@ -22,8 +22,7 @@ from ..store.format import StoreAttrs
 from ..store.masks import packed_width
 from ..store.writer import Layout, StoreWriter
 from .params import DEFAULT_EXAMPLES_PER_SHARD, GENERATOR_VERSION, MAX_FRAMES, GeneratorParams
-from .shard_task import SOURCE, ShardResult, ShardTask, example_ids
-from .shards import run_shard
+from .shard_task import SOURCE, ShardResult, ShardTask, example_ids, run
 
 Progress = Callable[[int], None]
 SHARD_BYTES = 2**28  # the most packed mask bytes one shard task holds
@@ -49,10 +48,10 @@ def _run_tasks(
 def _run_local(tasks: Iterable[ShardTask], workers: int) -> Iterator[ShardResult]:
     """Results in task order; at most 2 * workers tasks in flight."""
     if workers <= 1:
-        yield from map(run_shard, tasks)
+        yield from map(run, tasks)
         return
     with worker_pool(workers) as pool:
-        yield from ordered_map(lambda t: pool.submit(run_shard, t), Future.result, tasks, 2 * workers)
+        yield from ordered_map(lambda t: pool.submit(run, t), Future.result, tasks, 2 * workers)
 
 
 def generate(
