@@ -153,8 +153,8 @@ def test_workers_are_started_only_for_enough_work():
 
 
 def test_generate_chooses_workers_by_the_work_unless_told(tmp_path):
-    """2,000 examples (about a worker's start-up each, twice over) run in-process by default;
-    100,000 would start one worker per core; `workers` given is obeyed."""
+    """2,000 examples run in-process by default, 4,000 and 100,000 on one worker per core (2 here);
+    `workers` given is obeyed."""
     import multiprocessing
 
     from odms_data.parallel import workers_for
@@ -163,6 +163,7 @@ def test_generate_chooses_workers_by_the_work_unless_told(tmp_path):
 
     standard = preset("standard")
     assert workers_for(work_seconds(2000, standard), 2) == 1
+    assert workers_for(work_seconds(4000, standard), 2) == 2
     assert workers_for(work_seconds(100_000, standard), 2) == 2
     small = preset("standard", image_size=(60, 80), sizes=(20,))
     alive: list[int] = []
