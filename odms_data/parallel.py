@@ -13,7 +13,9 @@ starts in milliseconds instead of the 1.6 CPU-seconds a spawned one spent. Never
 caller itself: forking a process that runs JAX, TensorFlow or zarr threads is unsafe. The fork
 server is shared by the whole process: the first pool (ours or anyone's) starts it with its
 preloaded modules; a worker forked from one that has not loaded ours loads them itself, as a
-spawned one does. Where there is no fork server (Windows), workers are spawned.
+spawned one does. A forked worker takes the caller's working folder, sys.path and main module as
+a spawned one does, but the environment variables the fork server started with. Where there is
+no fork server (Windows), workers are spawned.
 """
 
 from __future__ import annotations
