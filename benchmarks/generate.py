@@ -4,7 +4,8 @@ Run by hand: `python benchmarks/generate.py [--count 4000]`. Each configuration 
 generate` in a subprocess (n = 10, 480x640, writing a store); peak RSS is the largest sum over
 the process tree, sampled every 20 ms; CPU-seconds are the whole machine's busy time while the
 command runs (its workers are forked by a fork server that it does not wait for, so its own
-accounting misses them): run it on an otherwise idle machine. The baseline renders masks as the
+accounting misses them), less this process's own (the sampling costs about a tenth of a core):
+run it on an otherwise idle machine. The baseline renders masks as the
 paper's released generator does (dense Bezier points marked on a float64 image, holes filled
 with scipy.ndimage.binary_fill_holes, 2000 points per segment), without perturbing or writing
 anything; "x release" is the command's examples per CPU-second over the baseline's. "x flood" is
@@ -123,7 +124,7 @@ def busy_cpu_seconds() -> float:
 
 def run(args: list[str]) -> tuple[float, float, float]:
     """Wall seconds, CPU-seconds and peak RSS (MB, whole process tree) of one odms-data command."""
-    c0, t = busy_cpu_seconds(), time.perf_counter()
+    c0, own, t = busy_cpu_seconds(), time.process_time(), time.perf_counter()
     proc = psutil.Popen([sys.executable, "-m", "odms_data.cli", *args],
                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     peak = 0
@@ -136,7 +137,8 @@ def run(args: list[str]) -> tuple[float, float, float]:
         time.sleep(0.02)
     if proc.returncode:
         raise SystemExit(f"odms-data {' '.join(args)} failed with exit code {proc.returncode}")
-    return time.perf_counter() - t, busy_cpu_seconds() - c0, peak / 2**20
+    cpu = busy_cpu_seconds() - c0 - (time.process_time() - own)  # not the sampling above
+    return time.perf_counter() - t, cpu, peak / 2**20
 
 
 def main() -> None:
