@@ -12,8 +12,9 @@ anything; "x release" is the command's examples per CPU-second over the baseline
 the same against those masks filled by OpenCV's flood fill instead, an upper bound on that
 approach. The floor is the work no generator of these stores avoids, in one process:
 cv2.fillPoly of each frame's polygon (its vertices computed beforehand), packing the drawn rows
-and compressing each example's chunk with zstd, the fastest of three passes; "x floor" is the
-command's CPU-seconds per example (its start-up included) over the floor's. The rows "in this
+and compressing each example's chunk with zstd, the fastest of three passes, measured just before
+and just after each row (the mean of the two is the row's "floor"); "x floor" is the command's
+CPU-seconds per example (its start-up included) over the floor's. The rows "in this
 process, started" time the same pipeline in the benchmark's own process once it has imported
 the package and loaded the kernels (half of --count examples, the fastest of three passes).
 """
@@ -28,6 +29,7 @@ import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any, TypeVar
 
 import cv2
 import numpy as np
@@ -38,6 +40,8 @@ import zstandard
 from odms_data.simulate.generate_store import generate
 from odms_data.simulate.object_model import sample_example
 from odms_data.simulate.params import PRESETS
+
+Measured = TypeVar("Measured")
 
 
 def fill_like_release(points: np.ndarray, H: int, W: int) -> np.ndarray:
@@ -73,34 +77,50 @@ def baseline_examples_per_cpu_second(count: int, fill: Callable[[np.ndarray, int
     return count / (time.process_time() - t)
 
 
-def floor_examples_per_cpu_second(preset: str, count: int) -> float:
-    """Draw (cv2.fillPoly, 1/16 px vertices), pack and zstd-compress `count` examples, in one process."""
-    p = PRESETS[preset]
-    H, W = p.image_size
-    polygons = []
-    for i in range(count):
-        spec = sample_example(p, 1, i)
-        for z in spec.z:
-            scale = p.d_min / z
-            pts = spec.contour * scale + [W / 2 - scale * spec.size / 2, H / 2 - scale * spec.size / 2]
-            polygons.append(np.round(pts * 16).astype(np.int32))
-    frame = np.zeros((H, W), np.uint8)
-    packed = np.zeros((p.n_obs, H, (W + 7) // 8), np.uint8)
-    zstd = zstandard.ZstdCompressor(level=3, write_checksum=True)
-    best = np.inf
-    for _ in range(3):  # the fastest of three: one pass moved by a third between runs
-        t = time.process_time()
-        for e in range(count):
-            for i in range(p.n_obs):
-                poly = polygons[e * p.n_obs + i]
-                cv2.fillPoly(frame, [poly], 1, cv2.LINE_8, 4)
-                y0, y1 = max(0, int(poly[:, 1].min()) // 16 - 1), min(H, int(poly[:, 1].max()) // 16 + 2)
-                packed[i, y0:y1] = np.packbits(frame[y0:y1], axis=-1)
-                frame[y0:y1] = 0
-            zstd.compress(packed.data)
-            packed[...] = 0
-        best = min(best, time.process_time() - t)
-    return count / best
+class Floor:
+    """The work no generator of these stores avoids, for one preset: draw (cv2.fillPoly, 1/16 px
+    vertices), pack and zstd-compress `count` examples in one process. The polygons are made once;
+    `rate()` times the rest."""
+
+    def __init__(self, preset: str, count: int) -> None:
+        p = self.params = PRESETS[preset]
+        H, W = p.image_size
+        self.polygons = []
+        for i in range(count):
+            spec = sample_example(p, 1, i)
+            for z in spec.z:
+                scale = p.d_min / z
+                pts = spec.contour * scale + [W / 2 - scale * spec.size / 2, H / 2 - scale * spec.size / 2]
+                self.polygons.append(np.round(pts * 16).astype(np.int32))
+
+    def rate(self) -> float:
+        """Examples per CPU-second, the fastest of three passes (one pass moved by a third)."""
+        p = self.params
+        (H, W), n = p.image_size, p.n_obs
+        frame = np.zeros((H, W), np.uint8)
+        packed = np.zeros((n, H, (W + 7) // 8), np.uint8)
+        zstd = zstandard.ZstdCompressor(level=3, write_checksum=True)
+        count, best = len(self.polygons) // n, np.inf
+        for _ in range(3):
+            t = time.process_time()
+            for e in range(count):
+                for i in range(n):
+                    poly = self.polygons[e * n + i]
+                    cv2.fillPoly(frame, [poly], 1, cv2.LINE_8, 4)
+                    y0, y1 = max(0, int(poly[:, 1].min()) // 16 - 1), min(H, int(poly[:, 1].max()) // 16 + 2)
+                    packed[i, y0:y1] = np.packbits(frame[y0:y1], axis=-1)
+                    frame[y0:y1] = 0
+                zstd.compress(packed.data)
+                packed[...] = 0
+            best = min(best, time.process_time() - t)
+        return count / best
+
+    def around(self, measure: Callable[..., Measured], *args: Any) -> tuple[Measured, float]:
+        """`measure(*args)` and the floor's rate, the mean of its rates just before and just after: this
+        machine's speed drifts by a fifth within minutes, so each row gets its own floor."""
+        before = self.rate()
+        value = measure(*args)
+        return value, (before + self.rate()) / 2
 
 
 def in_process_examples_per_cpu_second(preset: str, count: int, folder: Path) -> float:
@@ -148,30 +168,33 @@ def main() -> None:
     a = ap.parse_args()
     base = baseline_examples_per_cpu_second(10, fill_like_release)
     flood = baseline_examples_per_cpu_second(30, fill_by_flood)
-    floor = {preset: floor_examples_per_cpu_second(preset, 500) for preset in ("standard", "perturb")}
+    floors = {preset: Floor(preset, 500) for preset in ("standard", "perturb")}
+    ceiling = ", ".join(f"{p} {f.rate() / base:.0f}" for p, f in floors.items())
     print(f"examples/CPU-s: released generator's rasterisation (SciPy fill) {base:.1f}, the same with "
-          f"OpenCV's flood fill {flood:.1f}; floor (draw, pack, compress) {floor['standard']:.0f} standard, "
-          f"{floor['perturb']:.0f} perturb; load average {psutil.getloadavg()[0]:.1f} on "
-          f"{psutil.cpu_count()} CPUs")
-    header = ("preset", "format", "workers", "count", "ex/s", "ex/CPU-s", "x release", "x flood", "x floor",
-              "peak MB")
-    print("{:9} {:6} {:>7} {:>6} {:>8} {:>9} {:>9} {:>8} {:>8} {:>8}".format(*header))
+          f"OpenCV's flood fill {flood:.1f}; load average {psutil.getloadavg()[0]:.1f} on "
+          f"{psutil.cpu_count()} CPUs; each row's floor (draw, pack, compress) measured just before "
+          f"and after it; the floor now, x release (the most a row can read): {ceiling}")
+    header = ("preset", "format", "workers", "count", "ex/s", "ex/CPU-s", "x release", "x flood", "floor",
+              "x floor", "peak MB")
+    print("{:9} {:6} {:>7} {:>6} {:>8} {:>9} {:>9} {:>8} {:>6} {:>8} {:>8}".format(*header))
     tmp = Path(tempfile.mkdtemp())
     try:
         for preset in ("standard", "perturb"):
-            rate = in_process_examples_per_cpu_second(preset, a.count // 2, tmp)
-            print(f"{preset:9} zarr   in this process, started: {rate:9.0f} ex/CPU-s {'':18} "
-                  f"{floor[preset] / rate:8.2f}")
+            rate, floor = floors[preset].around(in_process_examples_per_cpu_second, preset, a.count // 2, tmp)
+            print(f"{preset:9} zarr   in this process, started: {rate:9.0f} ex/CPU-s {'':18} {floor:6.0f} "
+                  f"{floor / rate:8.2f}")
         configs = [(p, "zarr", w, a.count) for p in ("standard", "perturb") for w in (1, 2)]
         configs += [("standard", "hdf5", 2, a.count)]
         configs += [("perturb", "zarr", 2, a.large)] if a.large else []
         for preset, fmt, workers, count in configs:
             out = tmp / f"{preset}-{workers}.{'h5' if fmt == 'hdf5' else 'zarr'}"
-            secs, cpu, peak = run(["generate", "-n", str(count), "--preset", preset, "-o", str(out),
-                                   "--workers", str(workers), "--format", fmt, "--overwrite"])
+            args = ["generate", "-n", str(count), "--preset", preset, "-o", str(out),
+                    "--workers", str(workers), "--format", fmt, "--overwrite"]
+            (secs, cpu, peak), floor = floors[preset].around(run, args)
             rate, per_cpu = count / secs, count / cpu
-            print(f"{preset:9} {fmt:6} {workers:7d} {count:6d} {rate:8.0f} {per_cpu:9.0f} "
-                  f"{per_cpu / base:9.0f} {per_cpu / flood:8.0f} {floor[preset] / per_cpu:8.2f} {peak:8.0f}")
+            ratios = f"{per_cpu / base:9.0f} {per_cpu / flood:8.0f} {floor:6.0f} {floor / per_cpu:8.2f}"
+            row = f"{preset:9} {fmt:6} {workers:7d} {count:6d} {rate:8.0f} {per_cpu:9.0f}"
+            print(f"{row} {ratios} {peak:8.0f}")
     finally:
         shutil.rmtree(tmp)
 
