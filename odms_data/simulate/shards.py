@@ -14,7 +14,7 @@ from contextlib import contextmanager
 
 import numpy as np
 
-from ..store.digest import example_digest, padded_frame_digests
+from ..store.digest import example_digest, frame_tails, padded_frame_digests
 from ..store.masks import FrameStats, largest_region, packed_width
 from ..store.shard_writer import ShardChunks
 from .batch_render import FrameBoxes, render_boxes
@@ -35,17 +35,17 @@ def run_shard(task: ShardTask) -> ShardResult:
     """
     p = task.params
     n, (H, W) = p.n_obs, p.image_size
-    k = task.stop - task.start
-    z = np.empty(k * n)
-    stats = FrameStats.empty(k * n)
+    specs = sample_examples(p, task.seed, range(task.start, task.stop))
+    z = np.concatenate([spec.z for spec in specs])  # tasks are never empty
+    tails = frame_tails(z, z)  # a generated frame's depth is its z
+    stats = FrameStats.empty(len(z))
     digests = []
     ids = example_ids(task.split, task.count, task.start, task.stop)
     chunks = ShardChunks(task.fmt, n)
     measured = np.empty((n, 5), np.int64)  # per frame: area, then the object's x0, y0, x1, y1
     with _buffer(n, H, W) as packed:
-        for e, spec, boxes, b in _drawn(p, task.seed, task.start, task.stop):
+        for e, spec, boxes, b in _drawn(p, specs):
             f, mine = slice(e * n, (e + 1) * n), slice(b, b + n)
-            z[f] = spec.z
             _pack_boxes(boxes.image, boxes.top[mine], boxes.left[mine], boxes.lo[mine], boxes.hi[mine],
                         packed, measured)
             stats.area[f] = stats.largest_area[f] = measured[:, 0]
@@ -54,7 +54,7 @@ def run_shard(task: ShardTask) -> ShardResult:
                 stats.largest_area[f.start + i] = _largest_region(boxes, b + i, measured[i])
             chunks.add(packed)
             y0, y1 = boxes.lo[mine, 1], boxes.hi[mine, 1]
-            fd = padded_frame_digests(packed, y0.tolist(), y1.tolist(), spec.z, spec.z)
+            fd = padded_frame_digests(packed, y0.tolist(), y1.tolist(), tails[16 * f.start : 16 * f.stop])
             digests.append(example_digest(ids[e], SOURCE, spec.z[0], fd))
             _clear_rows(packed, y0, y1)
     result = ShardResult(task.start, task.stop, z, stats, digests)
@@ -103,11 +103,10 @@ def _clear_rows(packed, y0, y1):
 
 
 def _drawn(
-    p: GeneratorParams, seed: int, start: int, stop: int
+    p: GeneratorParams, specs: list[ExampleSpec]
 ) -> Iterator[tuple[int, ExampleSpec, FrameBoxes, int]]:
-    """(position in the shard, draws, render_boxes of its chunk, its first frame there) of
-    examples start..stop-1, all sampled together and rendered DRAW_CHUNK examples at a time."""
-    specs = sample_examples(p, seed, range(start, stop))
+    """(position in the shard, draws, render_boxes of its chunk, its first frame there) of each
+    example of `specs`, rendered DRAW_CHUNK examples at a time."""
     for a in range(0, len(specs), DRAW_CHUNK):
         chunk = specs[a : a + DRAW_CHUNK]
         boxes = render_boxes(chunk, p)

@@ -6,6 +6,7 @@ See schemas/FORMAT.md, section "Content digest", for the byte-level definition.
 from __future__ import annotations
 
 import hashlib
+import math
 import struct
 from collections.abc import Callable, Iterable
 from functools import lru_cache
@@ -23,21 +24,21 @@ if TYPE_CHECKING:
     from .reader import Store
 
 
-def _f64(values: np.ndarray) -> bytes:
-    """Little-endian float64 bytes with every NaN written as the one canonical quiet NaN."""
-    v = np.asarray(values, dtype="<f8").copy()
+def frame_tails(z: np.ndarray, depth: np.ndarray) -> memoryview:
+    """What each frame's digest hashes after its mask: 16 bytes a frame, its z then its depth as
+    little-endian float64, every NaN written as the one canonical quiet NaN."""
+    v = np.stack([z, depth], axis=1).astype("<f8")
     v[np.isnan(v)] = np.nan
-    return v.tobytes()
+    return memoryview(v.tobytes())
 
 
 def frame_digests(packed: np.ndarray, z: np.ndarray, depth: np.ndarray) -> np.ndarray:
     """(k, 32) uint8: SHA-256 of each frame's packed mask bytes, z and depth."""
     out = np.empty((len(packed), 32), np.uint8)
-    zb, db = _f64(z), _f64(depth)
+    tails = frame_tails(z, depth)
     for i in range(len(packed)):
         h = hashlib.sha256(np.ascontiguousarray(packed[i]).data)
-        h.update(zb[8 * i : 8 * i + 8])
-        h.update(db[8 * i : 8 * i + 8])
+        h.update(tails[16 * i : 16 * i + 16])
         out[i] = np.frombuffer(h.digest(), np.uint8)
     return out
 
@@ -53,32 +54,31 @@ def _zero_rows(height: int, row_bytes: int) -> tuple[list, memoryview]:
     return states, zeros
 
 
-def padded_frame_digests(
-    packed: np.ndarray, y0: list[int], y1: list[int], z: np.ndarray, depth: np.ndarray
-) -> np.ndarray:
-    """`frame_digests` of packed frames (k, height, row_bytes) that are zero but for rows
-    y0[i] .. y1[i] of frame i, hashing only those rows and the zero rows below them: the state
-    after the zero rows above is computed once and copied, the zero rows below come from a
-    shared buffer."""
+def padded_frame_digests(packed: np.ndarray, y0: list[int], y1: list[int], tails: memoryview) -> bytes:
+    """The `frame_digests` bytes of packed frames (k, height, row_bytes) that are zero but for
+    rows y0[i] .. y1[i] of frame i, whose `frame_tails` are `tails`, hashing only those rows and
+    the zero rows below them: the state after the zero rows above is computed once and copied,
+    the zero rows below come from a shared buffer."""
     k, height, row_bytes = packed.shape
     states, zeros = _zero_rows(height, row_bytes)
-    tails = memoryview(_f64(np.stack([z, depth], axis=1)))
-    out = np.empty((k, 32), np.uint8)
+    digests = []
     for i in range(k):
         h = states[y0[i]].copy()
-        h.update(packed[i, y0[i] : y1[i]].data)
+        h.update(packed[i, y0[i] : y1[i]])
         h.update(zeros[: (height - y1[i]) * row_bytes])
         h.update(tails[16 * i : 16 * i + 16])
-        out[i] = np.frombuffer(h.digest(), np.uint8)
-    return out
+        digests.append(h.digest())
+    return b"".join(digests)
 
 
-def example_digest(example_id: str, source: str, d1: float, frames: np.ndarray) -> bytes:
-    """SHA-256 of one example: its id, source, label and the digests of its frames in order."""
-    h = hashlib.sha256(example_id.encode() + b"\0" + source.encode() + b"\0")
-    h.update(_f64(np.array([d1])))
-    h.update(struct.pack("<I", len(frames)))
-    h.update(np.ascontiguousarray(frames, np.uint8).tobytes())
+def example_digest(example_id: str, source: str, d1: float, frames: np.ndarray | bytes) -> bytes:
+    """SHA-256 of one example: its id, source, label and the digests of its frames in order,
+    as a (k, 32) uint8 array or their bytes."""
+    data = frames if isinstance(frames, bytes) else np.ascontiguousarray(frames, np.uint8).tobytes()
+    d1 = float(d1)
+    h = hashlib.sha256(f"{example_id}\0{source}\0".encode())
+    h.update(struct.pack("<dI", math.nan if math.isnan(d1) else d1, len(data) // 32))
+    h.update(data)
     return h.digest()
 
 
