@@ -11,10 +11,11 @@ with scipy.ndimage.binary_fill_holes, 2000 points per segment), without perturbi
 anything; "x release" is the command's examples per CPU-second over the baseline's. "x flood" is
 the same against those masks filled by OpenCV's flood fill instead, an upper bound on that
 approach. The floor is the work no generator of these stores avoids, in one process:
-cv2.fillPoly of each frame's polygon (its vertices computed beforehand), packing the drawn rows
-and compressing each example's chunk with zstd, the fastest of three passes, measured just before
-and just after each row (the mean of the two is the row's "floor"); "x floor" is the command's
-CPU-seconds per example (its start-up included) over the floor's. The rows "in this
+cv2.fillPoly of each frame's polygon (its vertices and box computed beforehand), the erosion or
+dilation that the preset's perturbation asks for (its masks are not drawn without it), packing
+the drawn rows and compressing each example's chunk with zstd, the fastest of three passes,
+measured just before and just after each row (the mean of the two is the row's "floor"); "x
+floor" is the command's CPU-seconds per example (its start-up included) over the floor's. The rows "in this
 process, started" time the same pipeline in the benchmark's own process once it has imported
 the package and loaded the kernels (half of --count examples, the fastest of three passes).
 """
@@ -40,6 +41,7 @@ import zstandard
 from odms_data.simulate.generate_store import generate
 from odms_data.simulate.object_model import ExampleSpec, sample_example
 from odms_data.simulate.params import PRESETS, GeneratorParams
+from odms_data.simulate.render import CROSS
 
 Measured = TypeVar("Measured")
 
@@ -85,13 +87,19 @@ def baseline_examples_per_cpu_second(count: int, fill: Callable[[np.ndarray, int
 
 class Floor:
     """The work no generator of these stores avoids, for one preset: draw (cv2.fillPoly, 1/16 px
-    vertices), pack and zstd-compress `count` examples in one process. The polygons are made once;
-    `rate()` times the rest."""
+    vertices), perturb (cv2.erode or cv2.dilate, as the preset asks), pack and zstd-compress
+    `count` examples in one process. Each frame's polygon and box are made once; `rate()` times
+    the rest."""
 
     def __init__(self, preset: str, count: int) -> None:
         p = self.params = PRESETS[preset]
-        specs = (sample_example(p, 1, i) for i in range(count))
-        self.polygons = [np.round(placed(spec, p, z) * 16).astype(np.int32) for spec in specs for z in spec.z]
+        (H, W), self.frames = p.image_size, []
+        for spec in (sample_example(p, 1, i) for i in range(count)):
+            for z, perturb in zip(spec.z, spec.perturb, strict=True):
+                poly, k = np.round(placed(spec, p, z) * 16).astype(np.int32), int(np.round(abs(perturb)))
+                (x0, y0), (x1, y1) = poly.min(axis=0) // 16 - 1 - k, poly.max(axis=0) // 16 + 2 + k
+                box = slice(max(0, y0), min(H, y1)), slice(max(0, x0), min(W, x1))
+                self.frames.append((poly, box, k, cv2.dilate if perturb >= 0 else cv2.erode))
 
     def rate(self) -> float:
         """Examples per CPU-second, the fastest of three passes (one pass moved by a third)."""
@@ -100,16 +108,16 @@ class Floor:
         frame = np.zeros((H, W), np.uint8)
         packed = np.zeros((n, H, (W + 7) // 8), np.uint8)
         zstd = zstandard.ZstdCompressor(level=3, write_checksum=True)
-        count, best = len(self.polygons) // n, np.inf
+        count, best = len(self.frames) // n, np.inf
         for _ in range(3):
             t = time.process_time()
             for e in range(count):
-                for i in range(n):
-                    poly = self.polygons[e * n + i]
+                for i, (poly, (rows, columns), k, operation) in enumerate(self.frames[e * n : e * n + n]):
                     cv2.fillPoly(frame, [poly], 1, cv2.LINE_8, 4)
-                    y0, y1 = max(0, int(poly[:, 1].min()) // 16 - 1), min(H, int(poly[:, 1].max()) // 16 + 2)
-                    packed[i, y0:y1] = np.packbits(frame[y0:y1], axis=-1)
-                    frame[y0:y1] = 0
+                    if k:
+                        frame[rows, columns] = operation(frame[rows, columns], CROSS, iterations=k)
+                    packed[i, rows] = np.packbits(frame[rows], axis=-1)
+                    frame[rows] = 0
                 zstd.compress(packed.data)
                 packed[...] = 0
             best = min(best, time.process_time() - t)
