@@ -15,9 +15,10 @@ cv2.fillPoly of each frame's polygon (its vertices and box computed beforehand),
 dilation that the preset's perturbation asks for (its masks are not drawn without it), packing
 the drawn rows and compressing each example's chunk with zstd, the fastest of three passes,
 measured just before and just after each row (the mean of the two is the row's "floor"); "x
-floor" is the command's CPU-seconds per example (its start-up included) over the floor's. The rows "in this
-process, started" time the same pipeline in the benchmark's own process once it has imported
-the package and loaded the kernels (half of --count examples, the fastest of three passes).
+floor" is the command's CPU-seconds per example (its start-up included) over the floor's. The
+rows "in this process, started" time the same pipeline in the benchmark's own process once it
+has imported the package and loaded the kernels (half of --count examples, the fastest of three
+passes).
 """
 
 from __future__ import annotations
@@ -38,19 +39,13 @@ import psutil
 import scipy.ndimage
 import zstandard
 
+from odms_data.simulate.batch_render import frame_geometry
 from odms_data.simulate.generate_store import generate
-from odms_data.simulate.object_model import ExampleSpec, sample_example
-from odms_data.simulate.params import PRESETS, GeneratorParams
+from odms_data.simulate.object_model import sample_example
+from odms_data.simulate.params import PRESETS
 from odms_data.simulate.render import CROSS
 
 Measured = TypeVar("Measured")
-
-
-def placed(spec: ExampleSpec, p: GeneratorParams, z: float) -> np.ndarray:
-    """The example's contour in its frame at camera position z: scaled by d_min / z and centred."""
-    H, W = p.image_size
-    scale = p.d_min / z
-    return spec.contour * scale + [W / 2 - scale * spec.size / 2, H / 2 - scale * spec.size / 2]
 
 
 def fill_like_release(points: np.ndarray, H: int, W: int) -> np.ndarray:
@@ -79,7 +74,8 @@ def baseline_examples_per_cpu_second(count: int, fill: Callable[[np.ndarray, int
         spec = sample_example(dense, 1, i)
         masks = np.zeros((p.n_obs, H, W), np.float32)
         for k, z in enumerate(spec.z):
-            pts = placed(spec, dense, z)
+            scale = p.d_min / z
+            pts = spec.contour * scale + [W / 2 - scale * spec.size / 2, H / 2 - scale * spec.size / 2]
             x, y = np.clip(pts[:, 0].astype(int), 0, W - 1), np.clip(pts[:, 1].astype(int), 0, H - 1)
             masks[k] = fill(np.stack([x, y], axis=1), H, W)
     return count / (time.process_time() - t)
@@ -93,13 +89,15 @@ class Floor:
 
     def __init__(self, preset: str, count: int) -> None:
         p = self.params = PRESETS[preset]
-        (H, W), self.frames = p.image_size, []
-        for spec in (sample_example(p, 1, i) for i in range(count)):
-            for z, perturb in zip(spec.z, spec.perturb, strict=True):
-                poly, k = np.round(placed(spec, p, z) * 16).astype(np.int32), int(np.round(abs(perturb)))
-                (x0, y0), (x1, y1) = poly.min(axis=0) // 16 - 1 - k, poly.max(axis=0) // 16 + 2 + k
-                box = slice(max(0, y0), min(H, y1)), slice(max(0, x0), min(W, x1))
-                self.frames.append((poly, box, k, cv2.dilate if perturb >= 0 else cv2.erode))
+        specs = [sample_example(p, 1, i) for i in range(count)]
+        g = frame_geometry(specs, p, np.arange(p.n_obs), p.image_size)  # the generator's own arithmetic
+        lo, hi = np.maximum(g.lo, 0), np.minimum(g.hi, p.image_size[::-1])
+        self.frames = [
+            (np.round((g.poly[g.starts[f] : g.starts[f + 1]] + g.lo[f]) * 16).astype(np.int32),
+             (slice(lo[f, 1], hi[f, 1]), slice(lo[f, 0], hi[f, 0])), int(g.k[f]),
+             cv2.dilate if g.dilate[f] else cv2.erode)
+            for f in range(len(g.k))
+        ]
 
     def rate(self) -> float:
         """Examples per CPU-second, the fastest of three passes (one pass moved by a third)."""

@@ -100,7 +100,7 @@ def build_store(
         def digest_with(ids: list[str]) -> str:
             digest = StoreDigest(H, W, E)
             digest.update(
-                example_digest(ids[e], plan.sources[e], plan.d1[e], fd[row[row >= 0]])
+                example_digest(ids[e], plan.sources[e], plan.d1[e], fd[row[row >= 0]].tobytes())
                 for e, row in enumerate(plan.frame_index)
             )
             return digest.hexdigest()

@@ -54,7 +54,7 @@ def run_shard(task: ShardTask) -> ShardResult:
                 stats.largest_area[f.start + i] = _largest_region(boxes, b + i, measured[i])
             chunks.add(packed)
             y0, y1 = boxes.lo[mine, 1], boxes.hi[mine, 1]
-            fd = padded_frame_digests(packed, y0.tolist(), y1.tolist(), tails[16 * f.start : 16 * f.stop])
+            fd = padded_frame_digests(packed, y0.tolist(), y1.tolist(), tails[f])
             digests.append(example_digest(ids[e], SOURCE, spec.z[0], fd))
             _clear_rows(packed, y0, y1)
     result = ShardResult(task.start, task.stop, z, stats, digests)

@@ -24,12 +24,12 @@ if TYPE_CHECKING:
     from .reader import Store
 
 
-def frame_tails(z: np.ndarray, depth: np.ndarray) -> memoryview:
-    """What each frame's digest hashes after its mask: 16 bytes a frame, its z then its depth as
+def frame_tails(z: np.ndarray, depth: np.ndarray) -> np.ndarray:
+    """(k, 16) uint8: what each frame's digest hashes after its mask, its z then its depth as
     little-endian float64, every NaN written as the one canonical quiet NaN."""
     v = np.stack([z, depth], axis=1).astype("<f8")
     v[np.isnan(v)] = np.nan
-    return memoryview(v.tobytes())
+    return v.view(np.uint8)
 
 
 def frame_digests(packed: np.ndarray, z: np.ndarray, depth: np.ndarray) -> np.ndarray:
@@ -38,7 +38,7 @@ def frame_digests(packed: np.ndarray, z: np.ndarray, depth: np.ndarray) -> np.nd
     tails = frame_tails(z, depth)
     for i in range(len(packed)):
         h = hashlib.sha256(np.ascontiguousarray(packed[i]).data)
-        h.update(tails[16 * i : 16 * i + 16])
+        h.update(tails[i])
         out[i] = np.frombuffer(h.digest(), np.uint8)
     return out
 
@@ -54,7 +54,7 @@ def _zero_rows(height: int, row_bytes: int) -> tuple[list, memoryview]:
     return states, zeros
 
 
-def padded_frame_digests(packed: np.ndarray, y0: list[int], y1: list[int], tails: memoryview) -> bytes:
+def padded_frame_digests(packed: np.ndarray, y0: list[int], y1: list[int], tails: np.ndarray) -> bytes:
     """The `frame_digests` bytes of packed frames (k, height, row_bytes) that are zero but for
     rows y0[i] .. y1[i] of frame i, whose `frame_tails` are `tails`, hashing only those rows and
     the zero rows below them: the state after the zero rows above is computed once and copied,
@@ -66,19 +66,18 @@ def padded_frame_digests(packed: np.ndarray, y0: list[int], y1: list[int], tails
         h = states[y0[i]].copy()
         h.update(packed[i, y0[i] : y1[i]])
         h.update(zeros[: (height - y1[i]) * row_bytes])
-        h.update(tails[16 * i : 16 * i + 16])
+        h.update(tails[i])
         digests.append(h.digest())
     return b"".join(digests)
 
 
-def example_digest(example_id: str, source: str, d1: float, frames: np.ndarray | bytes) -> bytes:
-    """SHA-256 of one example: its id, source, label and the digests of its frames in order,
-    as a (k, 32) uint8 array or their bytes."""
-    data = frames if isinstance(frames, bytes) else np.ascontiguousarray(frames, np.uint8).tobytes()
+def example_digest(example_id: str, source: str, d1: float, frames: bytes) -> bytes:
+    """SHA-256 of one example: its id, source, label and the digests of its frames in order
+    (their 32-byte digests joined)."""
     d1 = float(d1)
     h = hashlib.sha256(f"{example_id}\0{source}\0".encode())
-    h.update(struct.pack("<dI", math.nan if math.isnan(d1) else d1, len(data) // 32))
-    h.update(data)
+    h.update(struct.pack("<dI", math.nan if math.isnan(d1) else d1, len(frames) // 32))
+    h.update(frames)
     return h.digest()
 
 
@@ -116,7 +115,7 @@ def recompute_digest(
             visit(start, block)
     digest = StoreDigest(store.height, store.width, store.n_examples)
     digest.update(
-        example_digest(ids[i], sources[i], d1[i], fd[row[row >= 0]]) for i, row in enumerate(fi)
+        example_digest(ids[i], sources[i], d1[i], fd[row[row >= 0]].tobytes()) for i, row in enumerate(fi)
     )
     return digest.hexdigest(), fd
 
