@@ -196,14 +196,19 @@ def _ours(folder: Path) -> bool:
         return False
 
 
+def _refuse_foreign(folder: Path, target: Path, kind: Kind) -> None:
+    """Refuse a sibling `folder` of `target` that is there and not odms-data's own."""
+    if os.path.lexists(folder) and not _ours(folder):
+        what = "a symbolic link" if folder.is_symlink() else "a folder" if folder.is_dir() else "a file"
+        raise kind.exists_error(f"{folder}: is {what} odms-data did not make; odms-data writes {target} "
+                                "through this name, so move it away")
+
+
 def _make_sibling_folder(folder: Path, target: Path, kind: Kind) -> None:
     """Make the sibling folder `folder` of `target` with the marker in it; a stale one of ours (an
     interrupted run's) is removed first, anything else there is refused."""
     if os.path.lexists(folder):
-        if not _ours(folder):
-            what = "a symbolic link" if folder.is_symlink() else "a folder" if folder.is_dir() else "a file"
-            raise kind.exists_error(f"{folder}: is {what} odms-data did not make; odms-data writes {target} "
-                                    "through this name, so move it away")
+        _refuse_foreign(folder, target, kind)
         shutil.rmtree(folder)
     folder.mkdir()
     fd = os.open(folder / MARKER, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
@@ -225,7 +230,10 @@ class Partial:
         self._made = False
 
     def make(self) -> Path:
-        """Make the (empty) partial output's place; returns its path."""
+        """Make the (empty) partial output's place; returns its path. A foreign `.replaced`
+        sibling is refused now, before the work, rather than when the output is moved into place."""
+        if self.is_folder or self.target.is_dir():  # the two cases that move the old output aside
+            _refuse_foreign(sibling(self.target, ".replaced"), self.target, self.kind)
         _make_sibling_folder(self.folder, self.target, self.kind)
         self._made = True
         return self.path
