@@ -211,11 +211,15 @@ def _make_sibling_folder(folder: Path, target: Path, kind: Kind) -> None:
         _refuse_foreign(folder, target, kind)
         shutil.rmtree(folder)
     folder.mkdir()
-    fd = os.open(folder / MARKER, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
     try:
-        os.write(fd, f"odms-data {os.getpid()} {uuid.uuid4()}\n".encode())
-    finally:
-        os.close(fd)
+        fd = os.open(folder / MARKER, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
+        try:
+            os.write(fd, f"odms-data {os.getpid()} {uuid.uuid4()}\n".encode())
+        finally:
+            os.close(fd)
+    except BaseException:
+        shutil.rmtree(folder, ignore_errors=True)  # just made: a full disk, say
+        raise
 
 
 class Partial:

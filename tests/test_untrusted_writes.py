@@ -12,6 +12,7 @@ import resource
 import signal
 import subprocess
 import sys
+import time
 from collections.abc import Callable
 from pathlib import Path
 
@@ -268,3 +269,18 @@ def test_the_command_line_keeps_the_promise(tmp_path):
     (tmp_path / "g.zarr.partial" / "dog.jpg").write_bytes(b"dog")
     _refused(_cli("generate", "-n", "2", "-o", "g.zarr", "--workers", "1", cwd=tmp_path), "did not make")
     assert json.dumps(sorted(p.name for p in (tmp_path / "g.zarr.partial").iterdir())) == '["dog.jpg"]'
+
+
+def test_train_stopped_by_sigterm_exits_143(tmp_path):
+    """The CLI's rule (128 + the signal) holds for `train` too, which says where it resumes."""
+    generate(str(tmp_path / "v.zarr"), 4, PRESETS["standard"], 5, workers=1)
+    p = subprocess.Popen([sys.executable, "-m", "odms_data.cli", "train", "-o", "run", "--val", "v.zarr",
+                          "--iterations", "100000", "--batch-size", "2", "--workers", "0", "--device", "cpu"],
+                         cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    while not (tmp_path / "run" / "curves.csv").exists() and p.poll() is None:
+        time.sleep(0.05)
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=120)
+    assert p.returncode == 143, err
+    assert err.strip().splitlines()[-1].startswith("odms-data: interrupted (SIGTERM); rerun the same command")
+    assert "Traceback" not in err and not (tmp_path / "run.lock").exists()
