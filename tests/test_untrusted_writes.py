@@ -259,7 +259,8 @@ def test_the_command_line_keeps_the_promise(tmp_path):
     thesis, photos = _victim(tmp_path)
     generate(str(tmp_path / "s.zarr"), 2, PRESETS["standard"], 5, workers=1)
     os.symlink(thesis, tmp_path / "v.csv.lock")
-    _refused(_cli("baseline", "vosde", "s.zarr", "-o", "v.csv", cwd=tmp_path), "v.csv.lock", "not an odms-data lock")
+    _refused(_cli("baseline", "vosde", "s.zarr", "-o", "v.csv", cwd=tmp_path), "v.csv.lock",
+             "not an odms-data lock")
     os.symlink(photos, tmp_path / "g.zarr.partial")
     _refused(_cli("generate", "-n", "2", "-o", "g.zarr", "--workers", "1", cwd=tmp_path), "g.zarr.partial")
     _untouched(thesis, photos)

@@ -114,9 +114,9 @@ def train(ctx, model, radial, run, val, iterations, batch_size, lr, val_every, n
     except KeyboardInterrupt as e:
         shown.close()
         at = shown.status.checkpoint if shown.status else 0
-        signum = e.signum if isinstance(e, Interrupted) else signal.SIGINT  # the CLI's rule: 128 + the signal
-        click.echo(f"odms-data: interrupted ({signal.Signals(signum).name}); rerun the same command to resume "
-                   f"{run} from its last checkpoint (iteration {at})", err=True)
+        signum = e.signum if isinstance(e, Interrupted) else signal.SIGINT  # exit 128 + the signal
+        click.echo(f"odms-data: interrupted ({signal.Signals(signum).name}); rerun the same command to "
+                   f"resume {run} from its last checkpoint (iteration {at})", err=True)
         ctx.exit(128 + signum)
     shown.close()
     if s.started_at >= iterations:

@@ -111,7 +111,7 @@ def predict(
 ) -> tuple[int, TrainConfig, int]:
     """Write the predictions file (schemas/PREDICTIONS.md) of the run's `which` checkpoint for every
     example of `stores` ({split: path}); returns (rows, the run's config, the checkpoint's iteration)."""
-    check_replaceable(output, overwrite, option="-o", suffixes=(".csv",))  # before the work, and again when written
+    check_replaceable(output, overwrite, option="-o", suffixes=(".csv",))  # before the work, and when written
     dev = pick_device(device)
     model, config, iteration = load_trained(folder, which, dev)
     rows: list[tuple[str, str, float]] = []

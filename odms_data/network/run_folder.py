@@ -103,7 +103,7 @@ def _not_a_run(path: Path) -> str | None:
     return None
 
 
-RUN_KIND = Kind("training run", lambda path: None)  # for the run's lock (RunFolder.check says what may be replaced)
+RUN_KIND = Kind("training run", lambda path: None)  # for the lock; RunFolder.check: what may be replaced
 
 
 class RunFolder:
@@ -125,7 +125,8 @@ class RunFolder:
             d = json.loads(path.read_text(encoding="utf-8"))
         except (OSError, ValueError, UnicodeDecodeError, RecursionError):
             return False
-        return isinstance(d, dict) and isinstance(d.get("odms_data"), str) and isinstance(d.get("config"), dict)
+        return (isinstance(d, dict) and isinstance(d.get("odms_data"), str)
+                and isinstance(d.get("config"), dict))
 
     def config(self) -> TrainConfig:
         if not self.is_run():

@@ -143,7 +143,8 @@ class StoreWriter:
                             raise
                 if self._partial is not None:
                     self._partial.discard()
-        if isinstance(exc, OSError) and (exc.errno in DISK_FULL or _inside(exc.filename, str(self._partial.folder) if self._partial else self.path)):
+        where = str(self._partial.folder) if self._partial else self.path
+        if isinstance(exc, OSError) and (exc.errno in DISK_FULL or _inside(exc.filename, where)):
             raise write_error(self.path, exc) from exc
 
     # --- content -----------------------------------------------------------------------
@@ -228,7 +229,7 @@ class StoreWriter:
             backend.write_attrs(attrs.to_json())
             backend.close()
             if self._partial is not None:
-                check_replaceable(self.path, self.overwrite, STORE)  # again: something may have come meanwhile
+                check_replaceable(self.path, self.overwrite, STORE)  # again: something may have come
                 self._partial.commit()
             self._committed = True
             return self.path
