@@ -244,9 +244,9 @@ class Partial:
 
     def commit(self) -> None:
         """Flush the finished output and rename it onto the target, replacing what is there."""
-        if self.is_folder:
-            (self.folder / MARKER).unlink()
         fsync_tree(self.path)
+        if self.is_folder:  # only now: a stale partial without the marker is refused, not removed
+            (self.folder / MARKER).unlink()
         _move_into_place(self.path, self.target, self.kind)
         if not self.is_folder:
             (self.folder / MARKER).unlink()
