@@ -71,8 +71,7 @@ def build_store(
         w.create(layout)
         tasks = [
             FrameTask(w.partial, w.format, s, plan.masks[s : s + fps],
-                      plan.z[s : s + fps], plan.depth[s : s + fps], (H, W), str(plan.masks[0]),
-                      plan.threshold, fpc, collect_all)
+                      plan.z[s : s + fps], plan.depth[s : s + fps], (H, W), plan.threshold, fpc, collect_all)
             for s in range(0, F, fps)
         ]
         fd = np.empty((F, 32), np.uint8)

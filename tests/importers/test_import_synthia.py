@@ -272,7 +272,7 @@ BAD_INPUTS = {
     "1-channel label": (lambda s: one_channel(s / "GT/LABELS" / CAM / "000002.png"),
                         "000002.png: 1 channel(s); SYNTHIA label images have 3"),
     "depth of another size": (lambda s: smaller(s / "Depth" / CAM / "000002.png"),
-                              "000002.png: 380x1280 pixels, but its label image 000002.png has 760x1280"),
+                              "000002.png: image size 380x1280 differs from the 760x1280"),
 }
 
 
