@@ -22,7 +22,7 @@ from ..evaluation.vosde import DEFAULT_N_OBS
 from ..evaluation.vosde import vosde as run_vosde
 from ..outputs import check_new_file, write_text
 from ..store.reader import open_store
-from . import echo_json
+from . import echo_json, echo_text
 from .progress import progress
 
 DATA_HELP = (f"Folder of ground-truth stores, or one store (repeatable). Default: ${ENV_VAR} "
@@ -82,9 +82,9 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
     if as_json:
         echo_json(report.to_json())
     elif markdown:
-        click.echo(render_markdown(report), nl=False)
+        echo_text(render_markdown(report), nl=False)
     else:
-        click.echo(render_text(report), nl=False)
+        echo_text(render_text(report), nl=False)
     if plot:
         from ..evaluation.error_plots import plot_errors
 
@@ -159,7 +159,7 @@ def vosde(stores, data, n_obs, output, overwrite, as_json):
         echo_json({"output": output, "n_obs": n_obs, "predictions": len(rows), "splits": counts})
         return
     for c in counts:
-        click.echo(f"{c['split']}: {c['examples']} examples, {c['unsolvable']} unsolvable (predicted 0), "
+        echo_text(f"{c['split']}: {c['examples']} examples, {c['unsolvable']} unsolvable (predicted 0), "
                    f"{c['empty_masks']} with an empty mask among the used observations")
     click.echo(f"wrote {output}: {len(rows)} predictions (VOS-DE, n = {n_obs})")
 
