@@ -187,7 +187,8 @@ def import_recording(
     if depth is not None and d1 is not None:
         raise InputError(f"{positions}: has a depth column; give either per-frame depth or --d1, not both")
     if depth is None:  # a known d1 means a static object: depth = d1 + z - smallest z
-        depth = d1 + (z - z.min()) if d1 is not None and len(z) else np.full(len(z), math.nan)
+        with np.errstate(over="ignore"):  # an overflow to inf is refused with the format's rules
+            depth = d1 + (z - z.min()) if d1 is not None and len(z) else np.full(len(z), math.nan)
     with Workers(workers) as pool:
         while True:
             plan = make_plan(name, mask_dir, files, z, depth, windows, n_obs, threshold, skipped)
