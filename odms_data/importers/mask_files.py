@@ -94,24 +94,29 @@ def _check_jpeg(path: Path, data: bytes) -> tuple[int, int]:
     return height, width
 
 
-def _checked(path: Path, expect: tuple[int, int] | None) -> bytes:
-    """The bytes of the mask file at `path`, once its structure is sound and the size its header
-    declares is at most MAX_PIXELS and, given `expect` (height, width), that size."""
-    data = _read(path)
+def _size(path: Path, data: bytes, expect: tuple[int, int] | None) -> tuple[int, int]:
+    """(height, width) the header of a sound mask file declares, once it is `expect` (when given)
+    and at most MAX_PIXELS."""
     h, w = _check_png(path, data) if path.suffix.lower() == ".png" else _check_jpeg(path, data)
-    if h * w > MAX_PIXELS:
-        raise InputError(f"{path}: image of {h}x{w} pixels (height x width) is larger than the "
-                         f"{MAX_PIXELS} pixels a mask may have")
     if expect is not None and (h, w) != tuple(expect):
         raise InputError(f"{path}: image size {h}x{w} differs from the {expect[0]}x{expect[1]} "
                          "(height x width) of the other images")
+    if h * w > MAX_PIXELS:
+        raise InputError(f"{path}: image of {h}x{w} pixels (height x width) is larger than the "
+                         f"{MAX_PIXELS} pixels a mask may have")
+    return h, w
+
+
+def _checked(path: Path, expect: tuple[int, int] | None) -> bytes:
+    """The bytes of the mask file at `path`, once `_size` accepts its header."""
+    data = _read(path)
+    _size(path, data, expect)
     return data
 
 
 def image_size(path: Path) -> tuple[int, int]:
-    """(height, width) of a mask file, read from its header without decoding it."""
-    data = _read(path)
-    return _check_png(path, data) if path.suffix.lower() == ".png" else _check_jpeg(path, data)
+    """(height, width) of a mask file from its header, without decoding it (see `_size`)."""
+    return _size(path, _read(path), None)
 
 
 def _read(path: Path) -> bytes:
