@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import difflib
 import json
+from collections.abc import Iterable
 from pathlib import Path
 
 import click
@@ -13,10 +14,12 @@ from ..errors import InputError
 from ..evaluation.ground_truth import (
     DEFAULT_DATA,
     ENV_VAR,
+    SplitTruth,
     data_locations,
     find_stores,
     load_truth,
     stores_by_split,
+    verify_truth,
 )
 from ..evaluation.vosde import DEFAULT_N_OBS
 from ..evaluation.vosde import vosde as run_vosde
@@ -79,6 +82,8 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
     truths = {split: load_truth(path) for split, path in stores.items()}
     preds = read_predictions(predictions, max_rows=sum(len(t.example_ids) for t in truths.values()))
     report = score_predictions(preds, truths, allow_partial=allow_partial)
+    if entry and not report.partial:  # the digests an entry records, checked first (verify_truth)
+        _verify(truths[split] for split in sorted(report.digests))
     if as_json:
         echo_json(report.to_json())
     elif markdown:
@@ -96,6 +101,15 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
         write_text(entry, json.dumps(e, indent=2, ensure_ascii=False, allow_nan=False) + "\n",
                    overwrite=overwrite, option="--entry")
         click.echo(f"wrote {entry}", err=True)
+
+
+def _verify(truths: Iterable[SplitTruth]) -> None:
+    """Every store's content against its digest and manifest (verify_truth), with progress."""
+    for t in truths:
+        with open_store(t.path) as s:
+            frames = s.n_frames
+        with progress(frames, f"verifying {t.split}") as update:
+            verify_truth(t, lambda start, block: update(len(block)))
 
 
 @click.group()
