@@ -414,6 +414,8 @@ def select_windows(track: Track, poses: dict[int, Pose], sel: Selection) -> dict
             if not sel.move[0] <= float(np.dot(centre - poses[first][0], axis)) <= sel.move[1]:
                 continue
             inside = [track.sightings[f] for f in range(first, c + 1) if f in track.sightings]
+            if n - len(inside) > sel.max_gap:  # the gap rule over the window's empty masks in all
+                continue
             if (not sel.border and any(x.border for x in inside)) or \
                     (not sel.occluded and any(x.occluded for x in inside)):
                 continue
@@ -504,7 +506,8 @@ def import_synthia(
         if not plan.ids:
             names = ", ".join(s.name for s in scanned.sequences)
             raise InputError(f"no window of {names} passes the selection rules (see --frames, --move, "
-                             "--d1-range, --min-area in schemas/SYNTHIA.md)")
+                             "--d1-range, --min-area in schemas/SYNTHIA.md; when the camera moves "
+                             "towards the objects, --forward may have the wrong sign)")
         done = 0
 
         def step(k: int) -> None:
