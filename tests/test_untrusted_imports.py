@@ -142,6 +142,61 @@ def test_hostile_recording_is_refused_in_one_line(case, tmp_path, huge_png):
     assert snapshot(tmp_path) == before  # no output, nothing else touched
 
 
+def release(root: Path) -> Path:
+    """A data/ folder of the release's layout: val/normal/synthetic_1 with 10 numbered masks."""
+    folder = root / "data" / "val" / "normal" / "synthetic_1"
+    folder.mkdir(parents=True)
+    for i in range(10):
+        img = np.zeros((H, W), np.uint8)
+        cv2.circle(img, (W // 2, H // 2), 20 - i, 255, -1)
+        cv2.imwrite(str(folder / f"{300000 + 20000 * i}.png"), img)
+    return folder
+
+
+def _release_link_outside(folder: Path) -> None:
+    outside = folder.parents[3] / "private.png"
+    (folder / "320000.png").rename(outside)
+    os.symlink(outside, folder / "320000.png")
+
+
+HOSTILE_RELEASES = {
+    "a mask linked out of its folder": (_release_link_outside, "'320000.png' lies outside"),
+    "a 200000x200000 header": (lambda f: (f / "340000.png").write_bytes(png(200000, 200000, idat=b"x")),
+                               "340000.png: image size 200000x200000 differs from the 48x64"),
+}
+
+
+@pytest.mark.parametrize("case", HOSTILE_RELEASES)
+def test_hostile_release_is_refused_in_one_line(case, tmp_path):
+    spoil, says = HOSTILE_RELEASES[case]
+    folder = release(tmp_path)
+    spoil(folder)
+    before = snapshot(tmp_path)
+    r = odms("import", "odms", tmp_path / "data", "-o", "stores", "--split", "normal-val", "--workers", "1",
+             cwd=tmp_path)
+    *progress, line = r.stderr.strip().splitlines()
+    assert r.returncode == 2 and line.startswith("odms-data: error: ") and says in line, r.stderr
+    assert snapshot(tmp_path) == before
+
+
+def test_a_synthia_label_image_declaring_too_much_is_refused(tmp_path):
+    seq = tmp_path / "SYNTHIA-SEQS-01-DAWN"
+    for k in ("GT/LABELS", "Depth", "CameraParams"):
+        (seq / k / "Stereo_Left" / "Omni_F").mkdir(parents=True)
+    for f in range(2):
+        name = f"{f:06d}"
+        (seq / "GT/LABELS/Stereo_Left/Omni_F" / f"{name}.png").write_bytes(
+            png(200000, 200000, depth=16, colour=2, idat=b"x"))
+        cv2.imwrite(str(seq / "Depth/Stereo_Left/Omni_F" / f"{name}.png"), np.full((H, W), 1000, np.uint16))
+        (seq / "CameraParams/Stereo_Left/Omni_F" / f"{name}.txt").write_text(
+            " ".join(map(str, np.eye(4).flatten())) + "\n")
+    before = snapshot(tmp_path)
+    r = odms("import", "synthia", seq, "-o", "s.zarr", "--workers", "1", cwd=tmp_path)
+    *progress, line = r.stderr.strip().splitlines()
+    assert r.returncode == 2 and "000000.png: image of 200000x200000 pixels" in line, r.stderr
+    assert snapshot(tmp_path) == before
+
+
 def test_terminal_escapes_in_a_source_are_shown_inert(tmp_path):
     rec = recording(tmp_path)
     evil = tmp_path / "rec" / "cup\x1b]0;owned\x07\x1b[2J"
