@@ -92,12 +92,12 @@ def _link_outside(rec: Path) -> None:
     os.symlink(rec.parent / "private.png", rec / "masks" / "f005.png")
 
 
-def _jpeg_header(rec: Path) -> None:
-    """f000 as a JPEG whose frame header declares 60000 x 60000 pixels."""
+def _jpeg_header(rec: Path, side: int = 60000) -> None:
+    """f000 as a JPEG whose frame header declares side x side pixels."""
     ok, buf = cv2.imencode(".jpg", cv2.imread(str(rec / "masks" / "f000.png")))
     data = bytearray(buf.tobytes())
     sof = data.index(b"\xff\xc0")
-    data[sof + 5 : sof + 9] = struct.pack(">HH", 60000, 60000)
+    data[sof + 5 : sof + 9] = struct.pack(">HH", side, side)
     (rec / "masks" / "f000.png").unlink()
     (rec / "masks" / "f000.jpg").write_bytes(bytes(data))
     (rec / "positions.csv").write_text((rec / "positions.csv").read_text().replace("f000.png", "f000.jpg"))
@@ -114,6 +114,8 @@ HOSTILE = {  # name: (what is done to the recording, extra arguments, what the e
                                "f003.png: corrupt PNG (IHDR declares"),
     "a JPEG header of 60000x60000": (lambda rec, big: _jpeg_header(rec), (),
                                      "f000.jpg: JPEG header declares"),
+    "a JPEG header of 10000x10000 (Pillow only warns)": (lambda rec, big: _jpeg_header(rec, 10000), (),
+                                                         "f000.jpg: image of 10000x10000 pixels"),
     "a row ../private.png": (lambda rec, big: _csv_row("../private.png")(rec), (),
                              "positions.csv line 7, column frame: '../private.png' lies outside"),
     "an absolute row": (lambda rec, big: _csv_row(str(rec / "masks" / "f005.png"))(rec), (),

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import io
 import struct
+import warnings
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
@@ -84,9 +85,11 @@ def _check_jpeg(path: Path, data: bytes) -> tuple[int, int]:
         raise InputError(f"{path}: not a JPEG file (bad start marker)")
     if not data.rstrip(b"\0").endswith(b"\xff\xd9"):
         raise InputError(f"{path}: truncated JPEG (no end-of-image marker)")
-    try:  # Pillow reads the header only; its own bound on pixels is above MAX_PIXELS
-        with Image.open(io.BytesIO(data), formats=["JPEG"]) as im:
-            width, height = im.size
+    try:  # Pillow reads the header only; its own bound (a warning, then an error) is above MAX_PIXELS
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            with Image.open(io.BytesIO(data), formats=["JPEG"]) as im:
+                width, height = im.size
     except Image.DecompressionBombError:
         raise InputError(f"{path}: JPEG header declares more than {MAX_PIXELS} pixels") from None
     except (OSError, SyntaxError, ValueError) as e:
