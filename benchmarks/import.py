@@ -9,14 +9,7 @@ Run by hand: `python benchmarks/import.py [--archive ../shared/data/odms-v1.tar.
 - Random access: reading whole examples with `Store.example` against `cv2.imread` of the same
   PNGs (thresholded to the same bool masks), the same random examples, both warm.
 
-Measured 2026-11-23 on the 2-core development machine, shared with other jobs (load average
-5.8 to 8.3), 2 workers: decode baseline 228 CPU s for the 117,272 PNGs; import 403 s wall,
-282 CPU s (1.24 x the baseline; about 141 s if the two cores were free, not measured). Stores
-16.74 MB of files (18.28 MB on disk), 143 B/mask with every array, PNGs 178 MB (10.6 x).
-Random access, median per example: store 0.9 to 6.1 ms, cv2.imread 17 to 83 ms; 11.9 to 30 x
-faster in wall time, 8.0 to 18.5 x in CPU time (robot the lowest: 10 small PNGs, 0.8 ms each).
-Measured again on the idle machine (load average 1.9): import 152 s wall, 281 CPU s (1.13 x the
-decode baseline); random access 7.1 to 17.5 x faster than cv2.imread.
+Writes benchmarks/results/import.json (results_json.py): the figures, the machine, date and commit.
 """
 
 from __future__ import annotations
@@ -32,9 +25,11 @@ import tarfile
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
+from results_json import machine, save
 
 from odms_data.benchmark import OFFICIAL_SPLITS as SPLITS
 from odms_data.importers.release import scan_split
@@ -101,6 +96,8 @@ def main() -> None:
     a = ap.parse_args()
     if not a.archive.is_file():
         raise SystemExit(f"archive not found: {a.archive}")
+    before = machine()
+    figures: dict[str, Any] = {"workers": a.workers}
     tmp = Path(tempfile.mkdtemp())
     try:
         t = time.perf_counter()
@@ -113,6 +110,8 @@ def main() -> None:
         per_png = {kind: decode_baseline([p for p in pngs if f"/{kind}/" in str(p)], a.sample // 4)
                    for kind in ("robot", "driving", "normal", "perturb")}
         decode_cpu = sum(per_png[k] * sum(f"/{k}/" in str(p) for p in pngs) for k in per_png)
+        figures["decode_baseline"] = {"pngs": len(pngs), "cpu_s": decode_cpu,
+                                      "ms_per_png": {k: 1e3 * v for k, v in per_png.items()}}
         print(f"baseline: cv2.imread of all {len(pngs)} PNGs ~ {decode_cpu:.0f} CPU s "
               f"({', '.join(f'{k} {1e3 * v:.2f} ms' for k, v in per_png.items())}); "
               f"load average now {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
@@ -121,6 +120,7 @@ def main() -> None:
         subprocess.run([sys.executable, "-m", "odms_data.cli", "import", "odms", str(data), "-o",
                         str(stores), "--workers", str(a.workers)], check=True, stderr=subprocess.DEVNULL)
         wall, cpu = time.perf_counter() - t, children_cpu() - cpu0
+        figures["import"] = {"wall_s": wall, "cpu_s": cpu, "cpu_over_decode_baseline": cpu / decode_cpu}
         print(f"import: {wall:.0f} s wall, {cpu:.0f} CPU s ({cpu / decode_cpu:.2f} x the decode "
               f"baseline; {a.workers} workers; load average now {os.getloadavg()[0]:.1f})")
         total, disk = 0, 0
@@ -128,13 +128,18 @@ def main() -> None:
             b, d = tree_bytes(stores / f"{split}.zarr")
             total, disk = total + b, disk + d
             print(f"  {split:13} {b / 1e6:6.2f} MB")
+        figures["size"] = {"store_bytes": total, "store_disk_bytes": disk, "masks": len(pngs),
+                           "png_bytes": png_bytes, "archive_bytes": a.archive.stat().st_size}
         print(f"size: {total / 1e6:.2f} MB of files ({disk / 1e6:.2f} MB on disk) for {len(pngs)} masks, "
               f"{total / len(pngs):.0f} B/mask; PNGs {png_bytes / 1e6:.0f} MB "
               f"({png_bytes / total:.1f} x), archive {a.archive.stat().st_size / 1e6:.0f} MB")
         print(f"random access, median ms per example over {a.examples} random examples (wall / CPU):")
+        access = figures["random_access_ms"] = {}
         for split, w_store, c_store, w_png, c_png in random_access(data, stores, a.examples):
+            access[split] = {"store_wall": w_store, "store_cpu": c_store, "png_wall": w_png, "png_cpu": c_png}
             print(f"  {split:13} store {w_store:6.2f} / {c_store:6.2f}   cv2.imread {w_png:7.2f} / "
                   f"{c_png:7.2f}   {w_png / w_store:5.1f} x / {c_png / c_store:5.1f} x faster")
+        print(f"wrote {save('import', figures, before)}")
     finally:
         shutil.rmtree(tmp)
 

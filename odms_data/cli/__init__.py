@@ -26,10 +26,18 @@ import click
 from .._version import __version__
 from ..errors import Interrupted, OdmsError
 from ..interrupts import stop_requested
+from ..shown_text import for_terminal
 
 
 def one_line(message: object) -> str:
-    return " ".join(str(message).split())
+    """`message` on one line, safe to print (names and ids in it may come from data)."""
+    return for_terminal(" ".join(str(message).split()))
+
+
+def echo_text(text: str, *, err: bool = False, nl: bool = True) -> None:
+    """Print text that holds names, ids or sources from data, its line breaks kept and each line
+    made safe for the terminal (shown_text.for_terminal)."""
+    click.echo("\n".join(map(for_terminal, text.split("\n"))), err=err, nl=nl)
 
 
 def echo_json(value: Any) -> None:
@@ -87,6 +95,14 @@ def _signals_interrupt() -> Iterator[None]:
             signal.signal(s, handler)
 
 
+def _printable_anywhere() -> None:
+    """A character the terminal's encoding lacks (an en dash on a Latin-1 terminal) is printed as
+    an escape instead of failing the command."""
+    for stream in (sys.stdout, sys.stderr):
+        if hasattr(stream, "reconfigure"):
+            stream.reconfigure(errors="backslashreplace")
+
+
 def _usage_line(e: click.ClickException) -> str:
     ctx = getattr(e, "ctx", None)
     where = f"; see '{ctx.command_path} --help'" if ctx is not None else ""
@@ -114,6 +130,7 @@ class OdmsGroup(click.Group):
     def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
         if not standalone_mode:
             return super().main(args, prog_name, complete_var, standalone_mode, **extra)
+        _printable_anywhere()
         with _signals_interrupt():
             try:
                 code = super().main(args, prog_name, complete_var, False, **extra)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from ..store.reader import open_store
-from . import echo_json
+from . import echo_json, echo_text
 from .progress import progress
 
 
@@ -46,5 +46,5 @@ def export(stores, output, name, licence, examples_per_file, overwrite, as_json)
         ]})
         return
     for e in exported:
-        click.echo(f"{e.split}: {e.examples} examples in {len(e.files)} Parquet file(s), {e.bytes:,} bytes")
+        echo_text(f"{e.split}: {e.examples} examples in {len(e.files)} Parquet file(s), {e.bytes:,} bytes")
     click.echo(f"wrote {output}: README.md (dataset card), croissant.json, data/")

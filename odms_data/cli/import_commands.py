@@ -20,7 +20,7 @@ from ..importers.synthia_protocol import (
     Selection,
     parse_classes,
 )
-from . import echo_json
+from . import echo_json, echo_text, one_line
 from .progress import progress
 
 
@@ -60,9 +60,9 @@ def _skipped(oddities: list[dict[str, str]]) -> list[str]:
 def _report_skipped(oddities: list[dict[str, str]], what: str) -> None:
     skipped = _skipped(oddities)
     if skipped:
-        click.echo(f"skipped {len(skipped)} {what}:")
+        echo_text(f"skipped {len(skipped)} {what}:")
         for detail in skipped:
-            click.echo(f"  {detail}")
+            echo_text(f"  {one_line(detail)}")
 
 
 def _counts(option: str, text: str | None) -> list[int] | None:
@@ -134,7 +134,7 @@ def odms(data_dir, out_dir, splits, fmt, overwrite, skip_bad, no_verify, workers
         path = Path(out_dir) / f"{name}{suffix}"
         verdict = (f"matches splits/{name}.json" if attrs.split == name
                    else f"differs from splits/{name}.json, stored as split {attrs.split}")
-        click.echo(f"wrote {path}: {attrs.counts['examples']} examples, {attrs.counts['frames']} frames, "
+        echo_text(f"wrote {path}: {attrs.counts['examples']} examples, {attrs.counts['frames']} frames, "
                    f"{len(attrs.oddities)} oddities recorded; {verdict}")
         _report_skipped(attrs.oddities, f"folder(s) of {name}")
 
@@ -191,7 +191,7 @@ def recording(mask_dir, positions, output, windows, n_obs, threshold, d1, name, 
                                "labelled": attrs.counts["labelled"], "frames": attrs.counts["frames"],
                                "digest": attrs.digest, "skipped": _skipped(attrs.oddities)})
         return
-    click.echo(f"wrote {path}: {attrs.counts['examples']} example(s) ({attrs.counts['labelled']} labelled), "
+    echo_text(f"wrote {path}: {attrs.counts['examples']} example(s) ({attrs.counts['labelled']} labelled), "
                f"{attrs.counts['frames']} frames, digest {attrs.digest}")
     _report_skipped(attrs.oddities, "row(s) or file(s)")
 
@@ -270,8 +270,8 @@ def synthia(seq_dirs, output, camera, classes, frames, stride, min_area, no_bord
         def tally(counts: dict[str, int]) -> str:
             return ", ".join(f"{n} {c}" for c, n in counts.items()) or "none"
 
-        click.echo(f"{seq['name']}: {seq['frames']} frames; tracks: {tally(seq['tracks'])}; "
+        echo_text(f"{seq['name']}: {seq['frames']} frames; tracks: {tally(seq['tracks'])}; "
                    f"examples: {tally(seq['examples'])}")
-    click.echo(f"wrote {path}: {attrs.counts['examples']} examples, {attrs.counts['frames']} frames, "
+    echo_text(f"wrote {path}: {attrs.counts['examples']} examples, {attrs.counts['frames']} frames, "
                f"{len(attrs.oddities)} oddities recorded, digest {attrs.digest}")
     _report_skipped(attrs.oddities, "frame(s) or sequence(s)")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import difflib
 import json
+from collections.abc import Iterable
 from pathlib import Path
 
 import click
@@ -13,16 +14,18 @@ from ..errors import InputError
 from ..evaluation.ground_truth import (
     DEFAULT_DATA,
     ENV_VAR,
+    SplitTruth,
     data_locations,
     find_stores,
     load_truth,
     stores_by_split,
+    verify_truth,
 )
 from ..evaluation.vosde import DEFAULT_N_OBS
 from ..evaluation.vosde import vosde as run_vosde
 from ..outputs import check_replaceable, write_text
 from ..store.reader import open_store
-from . import echo_json
+from . import echo_json, echo_text
 from .progress import progress
 
 DATA_HELP = (f"Folder of ground-truth stores, or one store (repeatable). Default: ${ENV_VAR} "
@@ -79,12 +82,14 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
     truths = {split: load_truth(path) for split, path in stores.items()}
     preds = read_predictions(predictions, max_rows=sum(len(t.example_ids) for t in truths.values()))
     report = score_predictions(preds, truths, allow_partial=allow_partial)
+    if entry and not report.partial:  # the digests an entry records, checked first (verify_truth)
+        _verify(truths[split] for split in sorted(report.digests))
     if as_json:
         echo_json(report.to_json())
     elif markdown:
-        click.echo(render_markdown(report), nl=False)
+        echo_text(render_markdown(report), nl=False)
     else:
-        click.echo(render_text(report), nl=False)
+        echo_text(render_text(report), nl=False)
     if plot:
         from ..evaluation.error_plots import plot_errors
 
@@ -96,6 +101,15 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
         write_text(entry, json.dumps(e, indent=2, ensure_ascii=False, allow_nan=False) + "\n",
                    overwrite=overwrite, option="--entry")
         click.echo(f"wrote {entry}", err=True)
+
+
+def _verify(truths: Iterable[SplitTruth]) -> None:
+    """Every store's content against its digest and manifest (verify_truth), with progress."""
+    for t in truths:
+        with open_store(t.path) as s:
+            frames = s.n_frames
+        with progress(frames, f"verifying {t.split}") as update:
+            verify_truth(t, lambda start, block: update(len(block)))
 
 
 @click.group()
@@ -159,7 +173,7 @@ def vosde(stores, data, n_obs, output, overwrite, as_json):
         echo_json({"output": output, "n_obs": n_obs, "predictions": len(rows), "splits": counts})
         return
     for c in counts:
-        click.echo(f"{c['split']}: {c['examples']} examples, {c['unsolvable']} unsolvable (predicted 0), "
+        echo_text(f"{c['split']}: {c['examples']} examples, {c['unsolvable']} unsolvable (predicted 0), "
                    f"{c['empty_masks']} with an empty mask among the used observations")
     click.echo(f"wrote {output}: {len(rows)} predictions (VOS-DE, n = {n_obs})")
 

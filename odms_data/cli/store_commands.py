@@ -7,7 +7,7 @@ import numpy as np
 
 from ..outputs import check_replaceable
 from ..store.reader import open_store
-from . import echo_json
+from . import echo_json, echo_text
 from .progress import progress
 
 
@@ -38,10 +38,10 @@ def validate(store, as_json):
                    "warnings": report.warnings, "digest": report.digest})
     else:
         for w in report.warnings:
-            click.echo(f"warning: {store}: {w}")
+            echo_text(f"warning: {store}: {w}")
         for p in report.problems:
-            click.echo(f"problem: {store}: {p}")
-        click.echo(f"{store}: {'valid' if report.ok else 'INVALID'}"
+            echo_text(f"problem: {store}: {p}")
+        echo_text(f"{store}: {'valid' if report.ok else 'INVALID'}"
                    + (f", digest {report.digest}" if report.digest else ""))
     if not report.ok:
         raise click.exceptions.Exit(1)
@@ -90,7 +90,7 @@ def info(store, as_json):
         lines.append(f"source      {a.source}")
     if a.oddities:
         lines.append(f"oddities    {len(a.oddities)} recorded (see --json)")
-    click.echo("\n".join(lines))
+    echo_text("\n".join(lines))
 
 
 @click.command()

@@ -4,18 +4,24 @@ The data folders are `--data DIR` (repeatable; a store path works too), else the
 the environment variable ODMS_DATA (separated by ':'), else ~/.cache/odms-data. Every store
 there (`*.zarr`, `*.h5`, `*.hdf5`, generated or imported) serves the split its attributes
 name, and its example ids start with `<split>/`.
+
+Scoring reads the labels only. Before a leaderboard entry records a store's digest,
+`verify_truth` checks it: the store's content (masks, z, depth, labels, ids) recomputed to the
+digest it records, and, for a named split, that digest against the split's manifest in splits/.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError, StoreError
+from ..errors import DigestMismatchError, InputError, StoreError
+from ..store.digest import check_recorded_digest
+from ..store.manifests import check_against_manifest, load_manifest, split_names
 from ..store.reader import open_store
 
 ENV_VAR = "ODMS_DATA"
@@ -99,3 +105,19 @@ def load_truth(path: Path) -> SplitTruth:
     with open_store(str(path)) as s:  # the reader refuses ids that are not unique or lack '<split>/'
         ids, d1 = s.example_ids, s.d1
         return SplitTruth(s.attrs.split, s.attrs.domain, str(path), s.attrs.digest, ids, d1)
+
+
+def verify_truth(truth: SplitTruth, visit: Callable[[int, np.ndarray], None] | None = None) -> None:
+    """StoreError or DigestMismatchError unless the store of `truth` holds the content its digest
+    says (every mask read; `visit(start, block)` follows them) and, for a named split, that
+    digest is its manifest's; also unless the labels scored are the ones digested."""
+    with open_store(truth.path) as s:
+        digest = check_recorded_digest(s, truth.path, visit)
+        if digest != truth.digest or not np.array_equal(s.d1, truth.d1, equal_nan=True):
+            raise StoreError(f"{truth.path}: changed while it was being scored; score it again")
+        if s.attrs.split in split_names():
+            try:
+                check_against_manifest(s.attrs, load_manifest(s.attrs.split), truth.path)
+            except DigestMismatchError as e:
+                raise DigestMismatchError(f"{e}; a leaderboard entry is scored on the official content "
+                                          "only") from None

@@ -18,6 +18,7 @@ from .._version import __version__
 from ..benchmark import ABS_UNITS, FAMILIES, OFFICIAL_DOMAINS, official_name
 from ..errors import InputError
 from ..resources import resource_dir
+from ..shown_text import markdown_link, markdown_text
 from .scoring import ScoreReport
 
 
@@ -112,15 +113,15 @@ def render_markdown(entries: list[dict], family: str = "test", metric: str = "pe
                 _cell(fam[d]["abs_m"] * scale[ABS_UNITS[d]]) if "abs_m" in fam.get(d, {}) else "–"
                 for d in OFFICIAL_DOMAINS
             ]
-        name = f"[{e['name']}]({e['link']})" if e.get("link") else e["name"]
+        name = markdown_link(e["name"], e.get("link"))
         n = str(e["n_obs"]) if e.get("n_obs") else "–"
-        train = e.get("training_data") or "–"
+        train = markdown_text(e.get("training_data") or "–")
         if e.get("radial_input"):
             train += ", radial"
         figures = "published" if e["figures"] == "published" else "computed here"
         lines.append(f"| {rank} | {name} | {n} | {train} | " + " | ".join(cells) + f" | {figures} |")
     cites = sorted({e["citation"] for e in entries if e.get("citation") and e["results"].get(family)})
-    lines += ["", "Sources: " + "; ".join(cites) + "."]
+    lines += ["", "Sources: " + "; ".join(map(markdown_text, cites)) + "."]
     return "\n".join(lines) + "\n"
 
 

@@ -15,7 +15,14 @@ import numpy as np
 
 from ..errors import InputError
 from ..store.digest import StoreDigest, example_digest
-from ..store.format import StoreAttrs
+from ..store.format import (
+    StoreAttrs,
+    d1_problems,
+    depth_problems,
+    frame_index_problems,
+    id_problems,
+    z_problems,
+)
 from ..store.writer import Layout, StoreWriter
 from .decoding import FrameTask, Workers
 from .oddities import example_oddities
@@ -71,8 +78,7 @@ def build_store(
         w.create(layout)
         tasks = [
             FrameTask(w.partial, w.format, s, plan.masks[s : s + fps],
-                      plan.z[s : s + fps], plan.depth[s : s + fps], (H, W), str(plan.masks[0]),
-                      plan.threshold, fpc, collect_all)
+                      plan.z[s : s + fps], plan.depth[s : s + fps], (H, W), plan.threshold, fpc, collect_all)
             for s in range(0, F, fps)
         ]
         fd = np.empty((F, 32), np.uint8)
@@ -120,6 +126,22 @@ def build_store(
             renamed = dict(zip(plan.ids, ids, strict=True))
             for o in attrs.oddities:  # an example's oddity follows its id (skipped folders keep theirs)
                 o["example"] = renamed.get(o["example"], o["example"])
+        _check_as_readers_do(plan, ids, attrs)
         w.write_examples(0, plan.frame_index, plan.d1, ids, plan.sources)
         w.commit(attrs)
     return attrs
+
+
+def _check_as_readers_do(plan: Plan, ids: list[str], attrs: StoreAttrs) -> None:
+    """InputError (nothing written) for the first rule of the store format (store/format.py, the
+    checks the readers and `validate` make) that the planned arrays break: duplicate ids (from
+    repeated window lengths), depths that overflowed to infinity, ..."""
+    def name(i: int) -> str:
+        return repr(ids[i])
+
+    problems = (id_problems(ids, attrs.split) + frame_index_problems(plan.frame_index, len(plan.z), name)
+                + z_problems(plan.z) + depth_problems(plan.depth)
+                + d1_problems(plan.d1, attrs.counts["labelled"], name))
+    if problems:
+        raise InputError(f"{plan.split}: the store would break the format's rules, so nothing was "
+                         f"written: {problems[0]}")

@@ -39,8 +39,7 @@ class FrameTask:
     masks: Sequence[MaskSource]
     z: np.ndarray
     depth: np.ndarray
-    size: tuple[int, int]
-    reference: str  # the source whose size all masks must have
+    size: tuple[int, int]  # (height, width) every mask must have, checked before it is decoded
     threshold: int
     chunk: int  # frames per mask chunk (HDF5 chunks are padded to it)
     collect_all: bool
@@ -69,12 +68,7 @@ def run_frames(task: FrameTask) -> FrameResult:
             stats.copy(done[id(f)], i)
             continue
         try:
-            m = f.read(task.threshold)
-            if m.shape != (H, W):
-                raise InputError(
-                    f"{f}: image size {m.shape[0]}x{m.shape[1]} differs from the "
-                    f"{H}x{W} (height x width) of {task.reference}"
-                )
+            m = f.read(task.threshold, (H, W))
         except InputError as e:
             result.failures.append((task.start + i, str(e)))
             if not task.collect_all:

@@ -1,7 +1,9 @@
 """Mask image files (PNG or JPEG) read into binary masks, with one-line errors naming the file.
 
-A file is checked before it is decoded (PNG: signature, chunk CRCs, IEND; JPEG: start and end
-markers), so a truncated or corrupt file is reported as such rather than decoded to garbage.
+A file is checked before it is decoded (PNG: signature, chunk CRCs, IHDR, IEND; JPEG: start and
+end markers, and its header as Pillow reads it without decoding), so a truncated or corrupt file is
+reported as such rather than decoded to garbage, and the size its header declares is bounded
+(`MAX_PIXELS`, `MAX_FILE_BYTES`, and the size the other masks have) before anything is decoded.
 Binarisation: a mask whose pixels take at most two values, one of them 0, is binary and
 everything nonzero is object (0/1 and 0/255 PNGs, 1-bit PNGs); any other mask (JPEG, anti-aliased)
 is thresholded, pixels >= `threshold` being object. A colour mask is read as grey; a PNG with
@@ -10,13 +12,16 @@ transparency is read from its alpha channel when the object is drawn there (`_rg
 
 from __future__ import annotations
 
+import io
 import struct
+import warnings
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
 import numpy as np
+from PIL import Image
 
 from ..errors import InputError
 from .plan import DEFAULT_THRESHOLD
@@ -25,6 +30,10 @@ cv2.setNumThreads(1)
 
 MASK_SUFFIXES = (".png", ".jpg", ".jpeg")
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+# 4096 x 4096: above a 4K video frame, and a decoded 16-bit RGBA image of it is 128 MiB
+MAX_PIXELS = 1 << 24
+MAX_FILE_BYTES = 1 << 28  # 256 MiB: more than any image of MAX_PIXELS compresses to
+PNG_DEPTHS = {0: (1, 2, 4, 8, 16), 2: (8, 16), 3: (1, 2, 4, 8), 4: (8, 16), 6: (8, 16)}  # by colour type
 
 
 def is_mask_file(path: Path) -> bool:
@@ -47,8 +56,7 @@ def _check_png(path: Path, data: bytes) -> tuple[int, int]:
         if zlib.crc32(kind + body) != struct.unpack(">I", data[end - 4 : end])[0]:
             raise InputError(f"{path}: corrupt PNG (CRC error in {kind.decode('latin-1')} chunk)")
         if kind == b"IHDR":
-            width, height = struct.unpack(">II", body[:8])
-            size = (height, width)
+            size = _png_size(path, body)
         if kind == b"IEND":
             seen_end = True
             break
@@ -60,50 +68,96 @@ def _check_png(path: Path, data: bytes) -> tuple[int, int]:
     return size
 
 
-def _check_jpeg(path: Path, data: bytes) -> None:
+def _png_size(path: Path, ihdr: bytes) -> tuple[int, int]:
+    """(height, width) of an IHDR chunk that libpng would accept; InputError otherwise."""
+    if len(ihdr) != 13:
+        raise InputError(f"{path}: corrupt PNG (IHDR chunk of {len(ihdr)} bytes, not 13)")
+    width, height, depth, colour = struct.unpack(">IIBB", ihdr[:10])
+    if not (0 < width < 1 << 31 and 0 < height < 1 << 31) or depth not in PNG_DEPTHS.get(colour, ()):
+        raise InputError(f"{path}: corrupt PNG (IHDR declares {width}x{height} pixels, bit depth {depth}, "
+                         f"colour type {colour})")
+    return height, width
+
+
+def _check_jpeg(path: Path, data: bytes) -> tuple[int, int]:
+    """(height, width) of a JPEG whose markers and header are sound; InputError otherwise."""
     if not data.startswith(b"\xff\xd8"):
         raise InputError(f"{path}: not a JPEG file (bad start marker)")
     if not data.rstrip(b"\0").endswith(b"\xff\xd9"):
         raise InputError(f"{path}: truncated JPEG (no end-of-image marker)")
+    try:  # Pillow reads the header only; its own bound (a warning, then an error) is above MAX_PIXELS
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            with Image.open(io.BytesIO(data), formats=["JPEG"]) as im:
+                width, height = im.size
+    except Image.DecompressionBombError:
+        raise InputError(f"{path}: JPEG header declares more than {MAX_PIXELS} pixels") from None
+    except (OSError, SyntaxError, ValueError) as e:
+        raise InputError(f"{path}: corrupt JPEG header ({' '.join(str(e).split())})") from None
+    return height, width
+
+
+def _size(path: Path, data: bytes, expect: tuple[int, int] | None) -> tuple[int, int]:
+    """(height, width) the header of a sound mask file declares, once it is `expect` (when given)
+    and at most MAX_PIXELS."""
+    h, w = _check_png(path, data) if path.suffix.lower() == ".png" else _check_jpeg(path, data)
+    if expect is not None and (h, w) != tuple(expect):
+        raise InputError(f"{path}: image size {h}x{w} differs from the {expect[0]}x{expect[1]} "
+                         "(height x width) of the other images")
+    if h * w > MAX_PIXELS:
+        raise InputError(f"{path}: image of {h}x{w} pixels (height x width) is larger than the "
+                         f"{MAX_PIXELS} pixels a mask may have")
+    return h, w
+
+
+def _checked(path: Path, expect: tuple[int, int] | None) -> bytes:
+    """The bytes of the mask file at `path`, once `_size` accepts its header."""
+    data = _read(path)
+    _size(path, data, expect)
+    return data
 
 
 def image_size(path: Path) -> tuple[int, int]:
-    """(height, width) of a mask file, read from its header (PNG) or by decoding it (JPEG)."""
-    if path.suffix.lower() == ".png":
-        return _check_png(path, _read(path))
-    return read_mask(path).shape
+    """(height, width) of a mask file from its header, without decoding it (see `_size`)."""
+    return _size(path, _read(path), None)
 
 
 def _read(path: Path) -> bytes:
     try:
-        return path.read_bytes()
+        with path.open("rb") as f:
+            data = f.read(MAX_FILE_BYTES + 1)
     except OSError as e:
         raise InputError(f"{path}: cannot be read ({e.strerror or e})") from None
+    if len(data) > MAX_FILE_BYTES:
+        raise InputError(f"{path}: larger than the {MAX_FILE_BYTES >> 20} MiB a mask file may be")
+    return data
 
 
-def read_png(path: Path) -> np.ndarray:
+def read_png(path: Path, expect: tuple[int, int] | None = None) -> np.ndarray:
     """The PNG at `path` as stored (bit depth and channels kept, colour in OpenCV's BGR order),
-    checked before it is decoded."""
-    data = _read(path)
-    _check_png(path, data)
-    return _decode(path, data, cv2.IMREAD_UNCHANGED)
+    checked (and its size bounded, see `_checked`) before it is decoded."""
+    return _decode(path, _checked(path, expect), cv2.IMREAD_UNCHANGED)
 
 
 def _decode(path: Path, data: bytes, flag: int) -> np.ndarray:
-    img = cv2.imdecode(np.frombuffer(data, np.uint8), flag)
+    try:
+        img = cv2.imdecode(np.frombuffer(data, np.uint8), flag)
+    except cv2.error as e:
+        reason = " ".join(str(getattr(e, "err", "") or e).split())  # OpenCV's own message is many lines
+        raise InputError(f"{path}: cannot be decoded as an image ({reason})") from None
     if img is None:
         raise InputError(f"{path}: cannot be decoded as an image")
     return img
 
 
-def read_mask(path: Path, threshold: int = DEFAULT_THRESHOLD) -> np.ndarray:
-    """(H, W) bool mask of the file at `path`, True = object."""
+def read_mask(
+    path: Path, threshold: int = DEFAULT_THRESHOLD, expect: tuple[int, int] | None = None
+) -> np.ndarray:
+    """(H, W) bool mask of the file at `path`, True = object; `expect` as in `read_png`."""
     if path.suffix.lower() == ".png":  # keeps the bit depth: a 16-bit 0/1 label image is not empty
-        img = read_png(path)
+        img = read_png(path, expect)
     else:
-        data = _read(path)
-        _check_jpeg(path, data)
-        img = _decode(path, data, cv2.IMREAD_GRAYSCALE)
+        img = _decode(path, _checked(path, expect), cv2.IMREAD_GRAYSCALE)
     if img.ndim == 3 and img.shape[2] == 4:
         return _rgba_mask(path, img, threshold)
     if img.ndim == 3:
@@ -142,8 +196,8 @@ class MaskFile:
     def size(self) -> tuple[int, int]:
         return image_size(self.path)
 
-    def read(self, threshold: int) -> np.ndarray:
-        return read_mask(self.path, threshold)
+    def read(self, threshold: int, expect: tuple[int, int] | None = None) -> np.ndarray:
+        return read_mask(self.path, threshold, expect)
 
 
 def binarize(img: np.ndarray, threshold: int = DEFAULT_THRESHOLD) -> np.ndarray:

@@ -30,8 +30,9 @@ class MaskSource(Protocol):
         """(height, width), without decoding where possible; InputError naming the source."""
         ...
 
-    def read(self, threshold: int) -> np.ndarray:
-        """(H, W) bool mask, True = object; InputError naming the source."""
+    def read(self, threshold: int, expect: tuple[int, int] | None = None) -> np.ndarray:
+        """(H, W) bool mask, True = object; InputError naming the source, also when its size is
+        not `expect` (height, width), found before anything is decoded."""
         ...
 
 

@@ -18,6 +18,7 @@ import numpy as np
 
 from ..benchmark import protocol_windows
 from ..errors import InputError
+from ..paths import inside
 from ..store.format import StoreAttrs
 from .builder import BadFiles, build_store
 from .decoding import Workers
@@ -87,7 +88,7 @@ def read_positions(
             di = _number(row.depth, where, "depth", blank_ok=True) if has_depth else math.nan
             if not di > 0 and not math.isnan(di):
                 raise InputError(f"{where}: depth {row.depth.strip()} is not a positive distance")
-            path = mask_dir / frame
+            path = inside(mask_dir, frame, f"{where}, column frame")
             if not path.is_file():
                 inner = sorted(mask_dir.glob(f"*/{frame}"))  # MASK_DIR one folder too high?
                 hint = f"; did you mean MASK_DIR {inner[0].parent}?" if inner else ""
@@ -186,7 +187,8 @@ def import_recording(
     if depth is not None and d1 is not None:
         raise InputError(f"{positions}: has a depth column; give either per-frame depth or --d1, not both")
     if depth is None:  # a known d1 means a static object: depth = d1 + z - smallest z
-        depth = d1 + (z - z.min()) if d1 is not None and len(z) else np.full(len(z), math.nan)
+        with np.errstate(over="ignore"):  # an overflow to inf is refused with the format's rules
+            depth = d1 + (z - z.min()) if d1 is not None and len(z) else np.full(len(z), math.nan)
     with Workers(workers) as pool:
         while True:
             plan = make_plan(name, mask_dir, files, z, depth, windows, n_obs, threshold, skipped)

@@ -24,10 +24,11 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
+from ..paths import inside
 from ..store.format import StoreAttrs
 from .builder import build_store
 from .decoding import Workers
-from .mask_files import read_png
+from .mask_files import image_size, read_png
 from .plan import MaskSource, Plan, store_name
 from .synthia_protocol import CAMERAS, CLASS_NAMES, PAPER_SELECTION, SYNTHIA_POSES, PoseConvention, Selection
 
@@ -64,8 +65,8 @@ class SequenceFiles:
 
 
 def _numbered(folder: Path, suffix: str) -> dict[int, Path]:
-    """Files named by a frame number (000123.png); other files are ignored."""
-    return {int(p.stem): p for p in folder.iterdir()
+    """Files named by a frame number (000123.png), each inside `folder`; other files are ignored."""
+    return {int(p.stem): inside(folder, p.name, str(folder)) for p in folder.iterdir()
             if p.suffix.lower() == suffix and re.fullmatch(r"[0-9]+", p.stem)}
 
 
@@ -157,7 +158,10 @@ class InstanceMask:
     def size(self) -> tuple[int, int]:
         return self.height, self.width
 
-    def read(self, threshold: int = 0) -> np.ndarray:
+    def read(self, threshold: int = 0, expect: tuple[int, int] | None = None) -> np.ndarray:
+        if expect is not None and (self.height, self.width) != tuple(expect):
+            raise InputError(f"{self}: image size {self.height}x{self.width} differs from the "
+                             f"{expect[0]}x{expect[1]} (height x width) of the other images")
         mask = np.zeros((self.height, self.width), bool)
         x, y, w, h = self.box
         if w:
@@ -189,15 +193,13 @@ class FrameScan:
     failure: str | None = None
 
 
-def scan_frame(task: tuple[int, str, str, tuple[int, ...]]) -> FrameScan:
-    """Every instance of the selected classes in one frame (run on a worker)."""
-    frame, label_path, depth_path, classes = task
+def scan_frame(task: tuple[int, str, str, tuple[int, ...], tuple[int, int] | None]) -> FrameScan:
+    """Every instance of the selected classes in one frame (run on a worker); its images must be
+    `expect` (height, width) in size, checked from their headers."""
+    frame, label_path, depth_path, classes, expect = task
     try:
-        labels = _read_16bit(Path(label_path), "label", 3)
-        depth = _read_16bit(Path(depth_path), "depth", 1)
-        if depth.shape[:2] != labels.shape[:2]:
-            raise InputError(f"{depth_path}: {depth.shape[0]}x{depth.shape[1]} pixels, but its label image "
-                             f"{Path(label_path).name} has {labels.shape[0]}x{labels.shape[1]}")
+        labels = _read_16bit(Path(label_path), "label", 3, expect)
+        depth = _read_16bit(Path(depth_path), "depth", 1, labels.shape[:2])
     except InputError as e:
         return FrameScan(frame, failure=str(e))
     cls, inst = cv2.extractChannel(labels, 2), cv2.extractChannel(labels, 1)  # BGR: R = class, G = instance
@@ -231,8 +233,8 @@ def scan_frame(task: tuple[int, str, str, tuple[int, ...]]) -> FrameScan:
     return scan
 
 
-def _read_16bit(path: Path, what: str, min_channels: int) -> np.ndarray:
-    img = read_png(path)
+def _read_16bit(path: Path, what: str, min_channels: int, expect: tuple[int, int] | None) -> np.ndarray:
+    img = read_png(path, expect)
     if img.dtype != np.uint16:
         raise InputError(f"{path}: {8 * img.itemsize}-bit PNG; SYNTHIA {what} images are 16-bit")
     channels = 1 if img.ndim == 2 else img.shape[2]
@@ -312,9 +314,9 @@ def scan_sequences(
                 seq.drop(f)
                 skip(f"{seq.name} frame {f}", str(e))
     scans: dict[str, dict[int, FrameScan]] = {}
-    size: tuple[int, int] | None = None
+    size = _first_size(sequences)
     for seq in sequences:
-        tasks = [(f, str(seq.labels[f]), str(seq.depth[f]), classes) for f in seq.frames]
+        tasks = [(f, str(seq.labels[f]), str(seq.depth[f]), classes, size) for f in seq.frames]
         scans[seq.name] = {}
         with pool.map(scan_frame, tasks) as results:
             for k, scan in enumerate(results, 1):
@@ -332,6 +334,16 @@ def scan_sequences(
     if size is None:
         raise InputError(f"no readable frame in {', '.join(map(str, seq_dirs))}")
     return Scanned(camera, sequences, poses, scans, size, oddities)
+
+
+def _first_size(sequences: list[SequenceFiles]) -> tuple[int, int] | None:
+    """(height, width) of the first label image, from its header; None when it is unreadable
+    (its scan then says why)."""
+    first = next((s.labels[s.frames[0]] for s in sequences if s.frames), None)
+    try:
+        return image_size(first) if first is not None else None
+    except InputError:
+        return None
 
 
 def check_classes(scanned: Scanned, classes: tuple[int, ...]) -> None:
@@ -402,6 +414,8 @@ def select_windows(track: Track, poses: dict[int, Pose], sel: Selection) -> dict
             if not sel.move[0] <= float(np.dot(centre - poses[first][0], axis)) <= sel.move[1]:
                 continue
             inside = [track.sightings[f] for f in range(first, c + 1) if f in track.sightings]
+            if n - len(inside) > sel.max_gap:  # the gap rule over the window's empty masks in all
+                continue
             if (not sel.border and any(x.border for x in inside)) or \
                     (not sel.occluded and any(x.occluded for x in inside)):
                 continue
@@ -492,7 +506,8 @@ def import_synthia(
         if not plan.ids:
             names = ", ".join(s.name for s in scanned.sequences)
             raise InputError(f"no window of {names} passes the selection rules (see --frames, --move, "
-                             "--d1-range, --min-area in schemas/SYNTHIA.md)")
+                             "--d1-range, --min-area in schemas/SYNTHIA.md; when the camera moves "
+                             "towards the objects, --forward may have the wrong sign)")
         done = 0
 
         def step(k: int) -> None:

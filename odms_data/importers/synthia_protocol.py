@@ -11,6 +11,7 @@ from ..errors import InputError
 
 CLASS_IDS = {"car": 8, "pedestrian": 10, "bicycle": 11}  # SYNTHIA's class table
 CLASS_NAMES = {v: k for k, v in CLASS_IDS.items()}
+MAX_CLASS = 1 << 16  # label images are 16-bit: class ids are below this
 CAMERAS = tuple(f"Stereo_{s}/Omni_{o}" for s in ("Left", "Right") for o in "FBLR")
 
 
@@ -59,8 +60,9 @@ def parse_classes(text: str) -> tuple[int, ...]:
     for t in (t.strip() for t in text.split(",")):
         if t in CLASS_IDS:
             out.append(CLASS_IDS[t])
-        elif t.isdigit():
+        elif t.isascii() and t.isdigit() and int(t) < MAX_CLASS:
             out.append(int(t))
         else:
-            raise InputError(f"--classes '{t}': not a class; use {', '.join(CLASS_IDS)} or SYNTHIA class ids")
+            raise InputError(f"--classes '{t}': not a class; use {', '.join(CLASS_IDS)} or SYNTHIA class ids "
+                             f"(0 to {MAX_CLASS - 1})")
     return tuple(dict.fromkeys(out))

@@ -39,8 +39,12 @@ def pick_device(name: str | None) -> torch.device:
         device = torch.device(name)
     except RuntimeError:
         raise InputError(f"--device '{name}' is not a device name (cpu, cuda, cuda:1, ...)") from None
+    if device.type not in ("cpu", "cuda"):  # meta, xla, ...: no place to train or predict on
+        raise InputError(f"--device {name}: not a device odms-data computes on; use cpu, cuda or cuda:N")
     if device.type == "cuda" and not torch.cuda.is_available():
         raise InputError(f"--device {name}: PyTorch sees no CUDA device on this machine")
+    if device.type == "cuda" and (device.index or 0) >= torch.cuda.device_count():
+        raise InputError(f"--device {name}: this machine has {torch.cuda.device_count()} CUDA device(s)")
     return device
 
 

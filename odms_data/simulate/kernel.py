@@ -5,7 +5,7 @@ code cached in the user's cache folder (`$XDG_CACHE_HOME/odms-data/numba`, by de
 Not in the package's own `__pycache__`, Numba's default: pip does not know of those files, so
 they would outlive an uninstall, and the folder left behind would shadow a later (editable)
 install of the package as an empty namespace package. Where the folder cannot be written,
-Numba falls back to its other places.
+Numba falls back to its other places; where none can, the kernels are compiled without a cache.
 """
 
 from __future__ import annotations
@@ -30,5 +30,9 @@ def kernel(function: Callable[..., Any]) -> Any:
     config.CACHE_DIR = chosen or cache_dir()  # read when the function's cache is set up
     try:
         return numba.njit(cache=True, nogil=True)(function)
+    except RuntimeError as e:  # no folder Numba may cache in is writable (a read-only home and install)
+        if "no locator available" not in str(e):
+            raise
+        return numba.njit(nogil=True)(function)  # compiled anew in every process
     finally:
         config.CACHE_DIR = chosen

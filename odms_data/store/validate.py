@@ -121,12 +121,12 @@ def _check_content(store: Store, report: Report, progress: Callable[[int], None]
     zz = np.where(fi >= 0, z[np.maximum(fi, 0)], np.inf)
     with np.errstate(invalid="ignore"):  # inf - inf in the padding of shorter examples
         steps = np.diff(zz, axis=1)
-    for row in np.nonzero(np.any(steps <= 0, axis=1) & (n_obs >= 2))[0]:
-        eid = ids[row]
-        if eid in excused:
-            report.warnings.append(f"example {eid}: z is not strictly increasing (recorded oddity)")
-        else:
-            P.append(f"example {eid}: z is not strictly increasing")
+    rows = [ids[row] for row in np.nonzero(np.any(steps <= 0, axis=1) & (n_obs >= 2))[0]]
+    recorded = [eid for eid in rows if eid in excused]
+    if recorded:  # one line for all: a camera that stops often is one finding, not hundreds
+        more = f" and {len(recorded) - 1} more example(s)" if len(recorded) > 1 else ""
+        report.warnings.append(f"example {recorded[0]}{more}: z is not strictly increasing (recorded oddity)")
+    P += [f"example {eid}: z is not strictly increasing" for eid in rows if eid not in excused]
     _check_masks(store, report, progress)
 
 

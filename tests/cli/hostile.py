@@ -437,10 +437,14 @@ FILE_OUTPUTS = {  # name -> (command up to the output option, option, fixture to
 for what, (cmd, opt, old, suffix) in FILE_OUTPUTS.items():
     needs = (*STORE_NEEDS, "n.csv", "normal-val.zarr", old)
     case(D, f"{what}: an existing file is kept", [*cmd, opt, old], needs, says=(old, "--overwrite"))
-    case(D, f"{what}: --overwrite replaces it", [*cmd, opt, old, "--overwrite"], needs, expect=0,
-         outputs=(old,), check=file_is(old, old))
     case(D, f"{what}: a folder is not a file", [*cmd, opt, "photos"], (*needs, "photos"),
          says=("photos", "folder"))
+    if what == "score --entry":  # normal-val.zarr is not the official content: no entry is written
+        case(M, f"{what}: a store only named like an official split", [*cmd, opt, old, "--overwrite"], needs,
+             says=("normal-val.zarr", "digest"))
+        continue
+    case(D, f"{what}: --overwrite replaces it", [*cmd, opt, old, "--overwrite"], needs, expect=0,
+         outputs=(old,), check=file_is(old, old))
     case(D, f"{what}: full disk, nothing left", [*cmd, opt, f"disk/out{suffix}"], needs,
          says=(f"disk/out{suffix}",), process=True, disk_kib=64, full=True)
 STORE_OUTPUTS = {  # name -> command without the output

@@ -7,11 +7,18 @@ import json
 import numpy as np
 import pytest
 from _stores import make_store
+from broken_stores import opened
 from click.testing import CliRunner
 
 from odms_data.cli import main
 from odms_data.errors import InputError
-from odms_data.evaluation.leaderboard import entry_problems, family_all, load_entries, render_markdown
+from odms_data.evaluation.leaderboard import (
+    entry_from_report,
+    entry_problems,
+    family_all,
+    load_entries,
+    render_markdown,
+)
 from odms_data.evaluation.metrics import SplitScore, percent_errors, score_split
 from odms_data.evaluation.metrics import family_all as report_all
 from odms_data.evaluation.predictions import HEADER
@@ -80,22 +87,65 @@ def test_score_outputs_table_markdown_and_json(tmp_path, official_like):
     assert both.exit_code == 2
 
 
-def test_entry_is_written_schema_valid_and_joins_the_leaderboard(tmp_path, official_like):
-    p, out = _preds(tmp_path, 1.05), tmp_path / "board" / "mine.json"
-    out.parent.mkdir()
-    r = CliRunner().invoke(main, ["score", str(p), "--data", str(official_like), "--name", "Mine",
-                                  "--entry", str(out), "--link", "https://example.org/mine"])
-    assert r.exit_code == 0, r.output
-    entry = json.loads(out.read_text())
+def test_entry_is_schema_valid_and_joins_the_leaderboard(tmp_path, official_like):
+    from odms_data.evaluation.ground_truth import find_stores, load_truth
+    from odms_data.evaluation.predictions import read_predictions
+    from odms_data.evaluation.scoring import score
+
+    truths = {s: load_truth(p) for s, p in find_stores([official_like]).items()}
+    report = score(read_predictions(_preds(tmp_path, 1.05)), truths)
+    entry = entry_from_report(report, "Mine", link="https://example.org/mine")
     assert entry_problems(entry) == []
     assert entry["figures"] == "computed" and entry["results"]["test"]["all"] == pytest.approx(5.0)
     assert set(entry["scored"]["stores"]) == set(OFFICIAL)
+    out = tmp_path / "board" / "mine.json"
+    out.parent.mkdir()
+    out.write_text(json.dumps(entry))
     for published in resource_dir("leaderboard").glob("*.json"):
         (out.parent / published.name).write_text(published.read_text())
     board = CliRunner().invoke(main, ["leaderboard", "--dir", str(out.parent)])
     assert board.exit_code == 0, board.output
     assert "| 1 | [Mine](https://example.org/mine) | – | – | 5.0 | 5.0 | 5.0 | 5.0 | 5.0 | computed here |" \
         in board.stdout
+
+
+def test_score_entry_refuses_a_store_named_robot_val_with_other_content(tmp_path):
+    """A store named robot-val, consistent with its own digest, but not the official content: no
+    entry, whose digests would pass for the official ones."""
+    data = tmp_path / "data"
+    ids = _valid_store(data / "robot-val.zarr", "robot-val")
+    preds = tmp_path / "p.csv"
+    preds.write_text("\n".join([HEADER, *(f"robot-val,{i},1.0" for i in ids)]) + "\n")
+    out = tmp_path / "mine.json"
+    r = CliRunner().invoke(main, ["score", str(preds), "--data", str(data), "--name", "Mine",
+                                  "--entry", str(out)])
+    assert r.exit_code == 2 and "does not match split 'robot-val'" in r.stderr, r.output
+    assert "official content only" in r.stderr and not out.exists()
+
+
+def _valid_store(path, split):
+    from broken_stores import make_valid
+
+    from odms_data.store.reader import open_store
+
+    make_valid(path, 4, split=split)
+    with open_store(str(path)) as s:
+        return s.example_ids
+
+
+def test_score_entry_refuses_labels_doubled_after_the_digest(tmp_path):
+    """A store whose labels were doubled after it was written (its recorded digest kept)."""
+    data = tmp_path / "data"
+    ids = _valid_store(data / "mine.zarr", "mine")
+    with opened(data / "mine.zarr") as root:
+        root["d1"][:] = 2 * root["d1"][:]
+    preds = tmp_path / "p.csv"
+    preds.write_text("\n".join([HEADER, *(f"mine,{i},1.0" for i in ids)]) + "\n")
+    plain = CliRunner().invoke(main, ["score", str(preds), "--data", str(data)])
+    assert plain.exit_code == 0, plain.output  # scoring alone reads the labels only
+    r = CliRunner().invoke(main, ["score", str(preds), "--data", str(data), "--name", "M",
+                                  "--entry", str(tmp_path / "e.json")])
+    assert r.exit_code == 2 and "differs from the recorded" in r.stderr, r.output
 
 
 def test_entry_needs_a_name_and_a_complete_score(tmp_path, official_like):

@@ -3,6 +3,7 @@ layout: 760x1280 frames of a camera driving past still, moving, leaving and hidd
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import re
@@ -19,8 +20,16 @@ from odms_data.cli import main
 from odms_data.errors import InputError
 from odms_data.evaluation.vosde import vosde
 from odms_data.importers.decoding import Workers
-from odms_data.importers.synthia import import_synthia, plan_store, read_pose, scan_sequences
-from odms_data.importers.synthia_protocol import PoseConvention, Selection
+from odms_data.importers.synthia import (
+    Sighting,
+    Track,
+    import_synthia,
+    plan_store,
+    read_pose,
+    scan_sequences,
+    select_windows,
+)
+from odms_data.importers.synthia_protocol import SYNTHIA_POSES, PoseConvention, Selection
 from odms_data.store.reader import open_store
 from odms_data.store.validate import validate
 
@@ -272,7 +281,7 @@ BAD_INPUTS = {
     "1-channel label": (lambda s: one_channel(s / "GT/LABELS" / CAM / "000002.png"),
                         "000002.png: 1 channel(s); SYNTHIA label images have 3"),
     "depth of another size": (lambda s: smaller(s / "Depth" / CAM / "000002.png"),
-                              "000002.png: 380x1280 pixels, but its label image 000002.png has 760x1280"),
+                              "000002.png: image size 380x1280 differs from the 760x1280"),
 }
 
 
@@ -353,3 +362,36 @@ def test_release_folder_names_and_camera_moves_follow_the_same_rules(official_da
         assert pngs == list(range(first, first + n)), folder
         moves = [float(line.split()[0]) for line in (folder / "info.txt").read_text().splitlines()[1:]]
         assert abs(moves[-1]) < 1e-12 and min(moves[:-1]) > -0.01, folder
+
+
+def _pose_file(path, M):
+    path.write_text(" ".join(repr(float(v)) for v in M.flatten(order="F")) + "\n")
+    return path
+
+
+def test_an_improper_pose_reads_as_its_proper_twin(tmp_path):
+    """SYNTHIA's poses are probably improper (determinant -1, a mirrored axis): the centre and the
+    optical axis read from one are those of the same camera with its x axis unmirrored."""
+    a, mirror = 0.3, np.diag([-1.0, 1, 1, 1])  # the camera's x axis mirrored
+    proper = np.eye(4)
+    proper[:3, :3] = [[np.cos(a), 0, np.sin(a)], [0, 1, 0], [-np.sin(a), 0, np.cos(a)]]
+    proper[:3, 3] = (1.0, 2.0, 3.0)
+    for direction, improper in (("camera-to-world", proper @ mirror), ("world-to-camera", mirror @ proper)):
+        assert np.linalg.det(improper[:3, :3]) == pytest.approx(-1)
+        conv = dataclasses.replace(SYNTHIA_POSES, direction=direction)
+        c0, f0 = read_pose(_pose_file(tmp_path / "p.txt", proper), conv)
+        c1, f1 = read_pose(_pose_file(tmp_path / "i.txt", improper), conv)
+        np.testing.assert_allclose(c1, c0, atol=1e-12)
+        np.testing.assert_allclose(f1, f0, atol=1e-12)
+
+
+def test_the_gap_rule_bounds_a_windows_empty_masks_in_all():
+    """Three absences of 3 frames each are each within --max-gap 5, but a 10-frame window with 6
+    empty masks is not kept; one with 3 is."""
+    present = [0, 4, 8, 9, 13, 14, 15, 16, 17, 18, 19]
+    sightings = {f: Sighting(1, 8, 500, 10.0, False, False, None) for f in present}  # type: ignore[arg-type]
+    track = Track(None, 1, list(range(20)), sightings)  # type: ignore[arg-type]
+    poses = {f: (np.array([0.0, 0.0, 0.5 * f]), np.array([0.0, 0.0, 1.0])) for f in range(20)}
+    kept = select_windows(track, poses, Selection(move=(0.1, 100)))
+    assert sorted(kept) == [15, 16, 17, 18, 19]  # 5, 4, 3, 3, 3 empty masks
+    # left out: closest frames 14, 13 and 9, whose windows have 6 empty masks each

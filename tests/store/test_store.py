@@ -219,3 +219,17 @@ def test_failed_write_leaves_nothing(tmp_path, name):
 def test_unknown_example_id_names_close_matches(small_zarr):
     with pytest.raises(InputError, match="did you mean small/000012"):
         open_store(str(small_zarr)).example("small/00012")
+
+
+def test_recorded_z_oddities_are_one_warning_line(tmp_path):
+    """A camera that stops in many examples: one warning line with a count, not one per example."""
+    from _stores import make_store
+    from broken_stores import edit_attrs
+
+    path = tmp_path / "stops.zarr"
+    make_store(path, "stops", [{"z": [0.5, 0.4], "areas": [64, 100], "d1": 0.5} for _ in range(3)])
+    edit_attrs(lambda a: a.update(oddities=[{"example": f"stops/{i:03d}", "kind": "z-not-increasing",
+                                             "detail": "the camera stops"} for i in range(3)]))(path)
+    warnings = [w for w in validate(str(path)).warnings if "z is not strictly increasing" in w]
+    assert warnings == ["example stops/000 and 2 more example(s): z is not strictly increasing "
+                        "(recorded oddity)"]

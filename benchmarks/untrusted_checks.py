@@ -1,0 +1,127 @@
+"""The cost of the checks on untrusted input (issue 27), against the old code in the same run.
+
+Run by hand: `python benchmarks/untrusted_checks.py [--old main] [--frames 600] [--repeats 3]`.
+- Import: `odms-data import recording` of a written recording (480 x 640 PNG masks, one worker)
+  in a subprocess, with this checkout's code and with `--old` (a git revision, extracted with
+  `git archive`), alternating, the median wall and CPU time (user + sys) of each.
+- Per mask file: the header check and path confinement alone (`mask_files.image_size`,
+  `paths.inside`) against decoding the file with cv2, in this process.
+- score --entry: what `score` reads of a generated store (`load_truth`, the labels) against the
+  verification an entry adds (`verify_truth`, every mask read and digested).
+Writes benchmarks/results/untrusted_checks.json (results_json.py).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+from results_json import machine, save
+
+from odms_data.evaluation.ground_truth import load_truth, verify_truth
+from odms_data.importers.mask_files import image_size
+from odms_data.paths import inside
+from odms_data.simulate.generate_store import generate
+from odms_data.simulate.params import GeneratorParams
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def write_recording(root: Path, n: int) -> tuple[Path, Path]:
+    masks = root / "masks"
+    masks.mkdir(parents=True)
+    rows = ["frame,z,depth"]
+    for i in range(n):
+        img = np.zeros((480, 640), np.uint8)
+        cv2.circle(img, (320, 240), 40 + i % 150, 255, -1)
+        cv2.imwrite(str(masks / f"f{i:04d}.png"), img)
+        rows.append(f"f{i:04d}.png,{0.2 + 0.001 * i:.4f},{0.5 + 0.001 * i:.4f}")
+    (root / "positions.csv").write_text("\n".join(rows) + "\n")
+    return masks, root / "positions.csv"
+
+
+def children_cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def time_import(code: Path, masks: Path, csv: Path, out: Path) -> tuple[float, float]:
+    cpu, t = children_cpu(), time.perf_counter()
+    subprocess.run([sys.executable, "-m", "odms_data.cli", "import", "recording", str(masks), "--positions",
+                    str(csv), "-o", str(out), "--workers", "1", "--overwrite"], check=True,
+                   cwd=out.parent, env={**os.environ, "PYTHONPATH": str(code)},
+                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return time.perf_counter() - t, children_cpu() - cpu
+
+
+def per_file(masks: Path) -> dict[str, float]:
+    files = sorted(masks.iterdir())
+    t = time.process_time()
+    for f in files:
+        image_size(f)
+        inside(masks, f.name, "bench")
+    checks = time.process_time() - t
+    t = time.process_time()
+    for f in files:
+        cv2.imdecode(np.fromfile(f, np.uint8), cv2.IMREAD_UNCHANGED)
+    decode = time.process_time() - t
+    return {"checks_ms": 1e3 * checks / len(files), "cv2_decode_ms": 1e3 * decode / len(files),
+            "checks_over_decode": checks / decode}
+
+
+def verification(root: Path, examples: int) -> dict[str, float]:
+    store = root / "bench.zarr"
+    generate(str(store), examples, GeneratorParams(), 0, split="bench", workers=1)
+    t = time.perf_counter()
+    truth = load_truth(store)
+    read = time.perf_counter() - t
+    t = time.perf_counter()
+    verify_truth(truth)
+    verify = time.perf_counter() - t
+    return {"examples": examples, "load_truth_s": read, "verify_truth_s": verify}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--old", default="main", help="git revision of the old code")
+    ap.add_argument("--frames", type=int, default=600)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--examples", type=int, default=2000, help="of the store score --entry verifies")
+    a = ap.parse_args()
+    before = machine()
+    tmp = Path(tempfile.mkdtemp())
+    try:
+        old = tmp / "old"
+        old.mkdir()
+        tracked = ["odms_data", "splits", "schemas", "leaderboard", "setup.cfg"]
+        archive = subprocess.run(["git", "archive", a.old, *tracked], cwd=REPO, capture_output=True,
+                                 check=True).stdout
+        subprocess.run(["tar", "-x", "-C", str(old)], input=archive, check=True)
+        masks, csv = write_recording(tmp / "rec", a.frames)
+        runs: dict[str, list[tuple[float, float]]] = {"old": [], "new": []}
+        for _ in range(a.repeats):
+            for name, code in (("old", old), ("new", REPO)):
+                runs[name].append(time_import(code, masks, csv, tmp / f"{name}.zarr"))
+        imports = {name: {"wall_s": statistics.median(w for w, _ in r),
+                          "cpu_s": statistics.median(c for _, c in r)} for name, r in runs.items()}
+        ratio = imports["new"]["cpu_s"] / imports["old"]["cpu_s"]
+        figures = {"import_recording": {"frames": a.frames, "old": a.old, "repeats": a.repeats, **imports,
+                                        "cpu_new_over_old": ratio},
+                   "per_mask_file": per_file(masks), "score_entry": verification(tmp, a.examples)}
+        print(save("untrusted_checks", figures, before).read_text())
+    finally:
+        shutil.rmtree(tmp)
+
+
+if __name__ == "__main__":
+    main()
