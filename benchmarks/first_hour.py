@@ -47,9 +47,11 @@ def block(readme: Path) -> list[str]:
     return [s for s in steps if s.strip() and not s.lstrip().startswith("#")]
 
 
-def git_status() -> str:
-    return subprocess.run(["git", "status", "--porcelain"], cwd=ROOT, capture_output=True, text=True,
-                          check=True).stdout
+def git_status() -> set[str]:
+    """The paths git status names: new, changed or deleted, untracked files one by one."""
+    out = subprocess.run(["git", "status", "--porcelain", "--untracked-files=all"], cwd=ROOT,
+                         capture_output=True, text=True, check=True).stdout
+    return set(out.splitlines())
 
 
 def run_block(steps: list[str], env: dict[str, str], log: Path) -> tuple[list[float], Path]:
@@ -108,8 +110,9 @@ def main() -> None:
     finally:
         if scratch != ROOT and Path(tempfile.gettempdir()) in scratch.parents:
             shutil.rmtree(scratch)
-    if git_status() != before:
-        raise SystemExit(f"the first hour left files in the clone:\n{git_status()}")
+    left = git_status() - before
+    if left:
+        raise SystemExit("the first hour left files in the clone:\n" + "\n".join(sorted(left)))
     for step, secs in zip(steps, seconds, strict=True):
         print(f"{secs:7.1f} s  {step.splitlines()[0][:100]}")
     print(f"{total:7.1f} s  in all; scores on sim-val (mean percent error): {found}")
