@@ -32,6 +32,9 @@ import psutil
 sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
 from distributed import Client, LocalCluster  # noqa: E402
 
+sys.path.append(str(Path(__file__).resolve().parent))  # last: nothing here shadows a package
+import _results  # noqa: E402
+
 DASK = Path(sys.executable).with_name("dask")
 
 
@@ -97,6 +100,7 @@ def main() -> None:
     ap.add_argument("--count", type=int, default=4000)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--url", action="store_true", help="also write a file:// URL on the nanny deployment")
+    _results.add_options(ap)
     a = ap.parse_args()
     tmp = Path(tempfile.mkdtemp())
     times: dict[str, list[tuple[float, float]]] = {}
@@ -134,11 +138,18 @@ def main() -> None:
     base = a.count / statistics.median(s for s, _ in times["local --workers 2"])
     base_cpu = a.count / statistics.median(c for _, c in times["local --workers 2"])
     print(f"{'configuration':24} {'ex/s':>7} {'x local':>8} {'ex/CPU-s':>9} {'x local':>8}   runs (s)")
+    rows = []
     for name, runs in times.items():
         rate = a.count / statistics.median(s for s, _ in runs)
         per_cpu = a.count / statistics.median(c for _, c in runs)
         print(f"{name:24} {rate:7.0f} {rate / base:8.2f} {per_cpu:9.0f} {per_cpu / base_cpu:8.2f}   "
               f"{' '.join(f'{s:.1f}' for s, _ in runs)}")
+        rows.append({"configuration": name, "examples/s": rate, "x local": rate / base,
+                     "examples/CPU-s": per_cpu, "x local (CPU)": per_cpu / base_cpu,
+                     "runs (s)": " ".join(f"{s:.1f}" for s, _ in runs)})
+    _results.save(a, f"Generating on Dask clusters against local workers ({a.count} examples, median of "
+                  f"{a.repeat} runs)", {"what": "local `generate --workers 2`", "value": base_cpu,
+                                        "unit": "examples/CPU-s"}, rows)
 
 
 if __name__ == "__main__":

@@ -18,6 +18,7 @@ two-sample Kolmogorov-Smirnov statistic D (scipy.stats.ks_2samp), its 5 % critic
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import cv2
@@ -31,6 +32,9 @@ from odms_data.simulate.generate_store import generate
 from odms_data.simulate.params import GeneratorParams, preset
 from odms_data.store.manifests import check_against_manifest, load_manifest
 from odms_data.store.reader import Store, open_store
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import _results  # noqa: E402
 
 PAIRS = (("sim-val", "normal-val"), ("sim-perturb-val", "perturb-val"))
 C_ALPHA = 1.358  # sqrt(-ln(0.05 / 2) / 2): the asymptotic 5 % critical value of D, times sqrt(n m / (n + m))
@@ -115,8 +119,9 @@ def main() -> None:
                     help="folder of sim-val.zarr and sim-perturb-val.zarr")
     ap.add_argument("--examples", type=int, default=2000)
     ap.add_argument("--workers", type=int, default=2, help="processes generating a missing sim store")
+    _results.add_options(ap)
     args = ap.parse_args()
-    official = find_stores(data_locations(args.data))
+    official, table = find_stores(data_locations(args.data)), []
     for sim_name, official_name in PAIRS:
         if official_name not in official:
             where = args.data or "$ODMS_DATA"
@@ -133,6 +138,13 @@ def main() -> None:
             counts = "" if n_sim == n_official else f" ({n_sim} / {n_official} values)"
             print(f"| {label}{counts} | {d:.4f} | {critical:.4f} | {'yes' if d < critical else '**no**'} "
                   f"| {mean_sim:.4g} | {mean_official:.4g} |")
+            table.append({"generated": f"{sim_name} (version {version})", "official": official_name,
+                          "statistic": label + counts, "KS D": d, "5 % critical": critical,
+                          "below": "yes" if d < critical else "no", "mean generated": mean_sim,
+                          "mean official": mean_official})
+    _results.save(args, "Fidelity: the generated splits against the official ones (two-sample KS tests)",
+                  {"what": "the official normal-val and perturb-val sets, first examples",
+                   "value": args.examples, "unit": "examples"}, table)
 
 
 if __name__ == "__main__":

@@ -45,6 +45,9 @@ from odms_data.simulate.object_model import sample_example
 from odms_data.simulate.params import PRESETS
 from odms_data.simulate.render import CROSS
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import _results  # noqa: E402
+
 Measured = TypeVar("Measured")
 
 
@@ -171,6 +174,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--count", type=int, default=4000)
     ap.add_argument("--large", type=int, default=20000, help="count of the memory-bound run (0: none)")
+    _results.add_options(ap)
     a = ap.parse_args()
     base = baseline_examples_per_cpu_second(10, fill_like_release)
     flood = baseline_examples_per_cpu_second(30, fill_by_flood)
@@ -183,12 +187,17 @@ def main() -> None:
     header = ("preset", "format", "workers", "count", "ex/s", "ex/CPU-s", "x release", "x flood", "floor",
               "x floor", "peak MB")
     print("{:9} {:6} {:>7} {:>6} {:>8} {:>9} {:>9} {:>8} {:>6} {:>8} {:>8}".format(*header))
-    tmp = Path(tempfile.mkdtemp())
+    tmp, rows = Path(tempfile.mkdtemp()), []
     try:
         for preset in ("standard", "perturb"):
             rate, floor = floors[preset].around(in_process_examples_per_cpu_second, preset, a.count // 2, tmp)
             print(f"{preset:9} zarr   in this process, started: {rate:9.0f} ex/CPU-s {'':18} {floor:6.0f} "
                   f"{floor / rate:8.2f}")
+            rows.append({"preset": preset, "format": "zarr", "workers": "in this process, started",
+                         "examples": a.count // 2, "seconds": None, "examples/s": None,
+                         "examples/CPU-s": rate,
+                         "x release": rate / base, "x flood": rate / flood, "floor examples/CPU-s": floor,
+                         "x floor (CPU per example)": floor / rate, "peak MB": None})
         configs = [(p, "zarr", w, a.count) for p in ("standard", "perturb") for w in (1, 2)]
         configs += [("standard", "hdf5", 2, a.count)]
         configs += [("perturb", "zarr", 2, a.large)] if a.large else []
@@ -201,8 +210,16 @@ def main() -> None:
             ratios = f"{per_cpu / base:9.0f} {per_cpu / flood:8.0f} {floor:6.0f} {floor / per_cpu:8.2f}"
             row = f"{preset:9} {fmt:6} {workers:7d} {count:6d} {rate:8.0f} {per_cpu:9.0f}"
             print(f"{row} {ratios} {peak:8.0f}")
+            rows.append({"preset": preset, "format": fmt, "workers": workers, "examples": count,
+                         "seconds": secs, "examples/s": rate, "examples/CPU-s": per_cpu,
+                         "x release": per_cpu / base, "x flood": per_cpu / flood,
+                         "floor examples/CPU-s": floor,
+                         "x floor (CPU per example)": floor / per_cpu, "peak MB": peak})
     finally:
         shutil.rmtree(tmp)
+    _results.save(a, "Generation: `odms-data generate` throughput and peak memory",
+                  {"what": "the released generator's rasterisation (SciPy hole fill)", "value": base,
+                   "unit": "examples/CPU-s"}, rows, {"baseline_flood_fill_examples_per_cpu_second": flood})
 
 
 if __name__ == "__main__":

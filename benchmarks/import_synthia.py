@@ -7,16 +7,6 @@ writer (tests/importers/synthia_scenes.py) into a temporary folder. Then, in the
   alone, nothing else): frames per second, CPU seconds.
 - Import: `odms-data import synthia` in a subprocess with 1 and with `--workers` workers: wall
   time, CPU time (user + sys of the whole process tree), frames per second, store rows/examples.
-
-Measured 2026-11-24 on the 2-core development machine under the CPU lock, 300 frames, the default
-protocol (1,614 examples in 16,140 frame rows). Quiet machine (load average 1.3 to 1.5): decode
-baseline 62.7 frames/s (4.8 s wall, 4.8 CPU s); import 21.0 frames/s with 1 worker (14.3 s wall
-and CPU; 0.33 x the baseline), 33.2 frames/s with 2 workers (9.0 s wall, 14.5 CPU s; 0.53 x).
-Busy machine (load average 4.0 to 4.5): baseline 53.6 frames/s, import 0.36 x (1 worker) and
-0.39 x (2). The import's CPU time is about 3 x the decoding's: in-process profiles give two
-thirds to the scan (the decoding itself, then finding and measuring the instances) and one third
-to the writing, where every sighting is stored in about 10 rows with the default 10-frame
-windows (one per closest frame, each with its own z), each row hashed and compressed.
 """
 
 from __future__ import annotations
@@ -35,6 +25,9 @@ import cv2
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "tests" / "importers"))
 import synthia_scenes as scenes  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import _results  # noqa: E402
 
 
 def long_street(n_frames: int) -> scenes.Scene:
@@ -64,7 +57,9 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--frames", type=int, default=300)
     ap.add_argument("--workers", type=int, default=2)
+    _results.add_options(ap)
     args = ap.parse_args()
+    rows = []
     with tempfile.TemporaryDirectory() as tmp:
         t = time.perf_counter()
         seq = scenes.write_sequence(Path(tmp), long_street(args.frames))
@@ -88,6 +83,11 @@ def main() -> None:
             rate = args.frames / wall
             print(f"import, {workers} worker(s): {wall:.1f} s wall, {cpu:.1f} CPU s, {rate:.1f} frames/s "
                   f"({rate / base:.2f} x the decode baseline); {s['examples']} examples, {s['frames']} rows")
+            rows.append({"workers": workers, "seconds": wall, "CPU-s": cpu, "frames/s": rate,
+                         "x baseline": rate / base, "examples": s["examples"], "rows": s["frames"]})
+    _results.save(args, f"Importing a SYNTHIA sequence of {args.frames} frames (760x1280)",
+                  {"what": "cv2.imread of the same label and depth PNGs, one process", "value": base,
+                   "unit": "frames/s"}, rows)
 
 
 if __name__ == "__main__":

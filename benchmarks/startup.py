@@ -24,6 +24,9 @@ import tempfile
 import time
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import _results  # noqa: E402
+
 REPO = Path(__file__).resolve().parents[1]
 BEFORE_LAYOUT = "8e76e8e"  # main before issue 11's layered package
 
@@ -46,7 +49,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--base", default=BEFORE_LAYOUT, help="earlier commit to compare with")
     parser.add_argument("--repeat", type=int, default=15)
+    _results.add_options(parser)
     args = parser.parse_args()
+    rows = []
     with tempfile.TemporaryDirectory() as tmp:
         base = Path(tmp) / "base"
         git = ["git", "-C", str(REPO), "worktree"]
@@ -66,11 +71,18 @@ def main() -> None:
                     times["here"].append(wall(REPO, new))
                 b, h = statistics.median(times["base"]), statistics.median(times["here"])
                 print(f"{name:26} {b:10.3f} {h:10.3f}  {b / h:5.1f}x")
-            print(f"odms_data modules loaded by 'import odms_data': {modules(base, 'odms_data')} before, "
-                  f"{modules(REPO, 'odms_data')} now; by one small module: "
-                  f"{modules(base, 'odms_data.masks')} before, {modules(REPO, 'odms_data.store.masks')} now")
+                rows.append({"command": name, f"{args.base} (s)": b, "this tree (s)": h, "ratio": b / h})
+            small = (modules(base, "odms_data.masks"), modules(REPO, "odms_data.store.masks"))
+            loaded = {"import odms_data": (modules(base, "odms_data"), modules(REPO, "odms_data")),
+                      "one small module": small}
+            print(f"odms_data modules loaded by 'import odms_data': {loaded['import odms_data'][0]} before, "
+                  f"{loaded['import odms_data'][1]} now; by one small module: "
+                  f"{loaded['one small module'][0]} before, {loaded['one small module'][1]} now")
         finally:
             subprocess.run([*git, "remove", "--force", str(base)], check=True)
+    _results.save(args, f"Start-up of the command line and the package (median of {args.repeat}, wall)",
+                  {"what": f"the same at commit {args.base}", "value": rows[0][f"{args.base} (s)"],
+                   "unit": "s for odms-data --help"}, rows, {"odms_data_modules_loaded_base_here": loaded})
 
 
 if __name__ == "__main__":

@@ -27,6 +27,7 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import os
+import sys
 import tempfile
 import time
 from collections.abc import Iterable
@@ -40,6 +41,9 @@ from odms_data.simulate.generate_store import generate
 from odms_data.simulate.object_model import sample_example
 from odms_data.simulate.params import GeneratorParams
 from odms_data.simulate.render import render_masks
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import _results  # noqa: E402
 
 PARAMS = GeneratorParams(n_obs=10)
 
@@ -110,6 +114,7 @@ def main() -> None:
     ap.add_argument("--store", help="store to read (default: 4,096 generated examples in a temp dir)")
     ap.add_argument("--examples", type=int, default=4096, help="examples per streaming measurement")
     ap.add_argument("--batch-size", type=int, default=256)
+    _results.add_options(ap)
     args = ap.parse_args()
     print(f"{len(os.sched_getaffinity(0))} CPUs available, batch size {args.batch_size}, n = {PARAMS.n_obs}")
     B = args.batch_size
@@ -176,6 +181,14 @@ def main() -> None:
             from odms_data.loaders.tf_loader import from_store
 
             record("tf store -> 112x112 coverage, workers=2", rate(from_store(store, B, workers=2), B, 2))
+    _, base, base_cpu, _ = results[0]
+    rows = [{"loader": name, "examples/s": wall, "x baseline": wall / base, "examples/CPU-s": cpu,
+             "x baseline (CPU)": cpu / base_cpu, "warm-up CPU-s": start}
+            for name, wall, cpu, start in results[1:]]
+    _results.save(args, "Loaders: examples/s of the streaming generator and of store reads",
+                  {"what": "480x640 masks drawn and shrunk to 112x112, one process", "value": base_cpu,
+                   "unit": "examples/CPU-s"}, rows,
+                  {"batch_size": B, "n_obs": PARAMS.n_obs, "examples_per_row": nb * B})
 
 
 if __name__ == "__main__":

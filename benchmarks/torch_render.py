@@ -13,7 +13,9 @@ checked against the CPU renderer's masks (largest difference printed).
 from __future__ import annotations
 
 import argparse
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -22,6 +24,9 @@ from odms_data.loaders.torch_render import render_coverage
 from odms_data.simulate.batch_render import render_shrunk
 from odms_data.simulate.object_model import sample_example
 from odms_data.simulate.params import GeneratorParams
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import _results  # noqa: E402
 
 PARAMS = GeneratorParams(n_obs=10)
 SIZE = (112, 112)
@@ -32,6 +37,7 @@ def main() -> None:
     ap.add_argument("--device", default="cuda" if torch.cuda.is_available() else "cpu")
     ap.add_argument("--batch-size", type=int, default=512)
     ap.add_argument("--batches", type=int, default=8)
+    _results.add_options(ap)
     a = ap.parse_args()
     B = a.batch_size
     batches = [[sample_example(PARAMS, 0, b * B + i) for i in range(B)] for b in range(a.batches + 1)]
@@ -52,6 +58,11 @@ def main() -> None:
     print(f"CPU renderer (render_shrunk, one process): {cpu_rate:9.0f} examples/s")
     print(f"torch_render on {a.device}: {rate:23.0f} examples/s  {rate / cpu_rate:6.2f}x the CPU renderer")
     print(f"largest difference from the CPU renderer: {worst:.2e}")
+    _results.save(a, "The PyTorch coverage renderer on a device against the CPU renderer",
+                  {"what": "CPU renderer (render_shrunk, one process)", "value": cpu_rate,
+                   "unit": "examples/s"},
+                  [{"device": f"{a.device} ({name})", "batch size": B, "batches": a.batches,
+                    "examples/s": rate, "x CPU renderer": rate / cpu_rate, "largest difference": worst}])
 
 
 if __name__ == "__main__":

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -27,6 +28,9 @@ from odms_data.network.training import train
 from odms_data.network.variants import variant
 from odms_data.simulate.generate_store import generate
 from odms_data.simulate.params import PRESETS
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import _results  # noqa: E402
 
 
 def step_rate(model: torch.nn.Module, images: torch.Tensor, zbar: torch.Tensor, label: torch.Tensor,
@@ -51,6 +55,7 @@ def main() -> None:
     ap.add_argument("--batch", type=int, default=64)
     ap.add_argument("--steps", type=int, default=5)
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    _results.add_options(ap)
     args = ap.parse_args()
     b, v = args.batch, variant("odn-l")
     torch.manual_seed(0)
@@ -84,12 +89,18 @@ def main() -> None:
     print(f"ODN_l steps of {b} examples, {args.steps} steps, torch threads {torch.get_num_threads()}, "
           f"stream workers {args.workers}")
     print("| | examples/s | vs baseline |\n| --- | ---: | ---: |")
+    rows = []
     for name, rate in (("baseline: a step, contiguous memory format", base),
                        ("a step, channels-last (odms-data)", fast),
                        (f"the stream alone, {args.workers} workers", stream_rate),
                        ("train(): stream + steps + 1 validation of 64", train_rate)):
         print(f"| {name} | {rate:,.1f} | {rate / base:.2f}x |")
+        rows.append({"what": name, "examples/s": rate, "x baseline": rate / base})
     print(f"largest output difference, channels-last vs contiguous: {differ:.2e}")
+    _results.save(args, f"ODN's training speed on the CPU (batches of {b}, {args.steps} steps, "
+                  f"{torch.get_num_threads()} torch threads)",
+                  {"what": "a training step of ODN_l, contiguous memory format", "value": base,
+                   "unit": "examples/s"}, rows[1:], {"largest_output_difference": differ})
 
 
 if __name__ == "__main__":

@@ -9,7 +9,7 @@ multiprocessing's resource tracker removes the shared memory blocks they registe
 
 Workers are forked from multiprocessing's fork server, a clean process started once per process
 that has imported the renderer and loaded its kernels (simulate/warm_start.py), so a worker
-starts in milliseconds instead of the 1.6 CPU-seconds a spawned one spent. Never forked from the
+starts at once instead of loading them itself, as a spawned one would. Never forked from the
 caller itself: forking a process that runs JAX, TensorFlow or zarr threads is unsafe. The fork
 server is shared by the whole process: the first pool (ours or anyone's) starts it with its
 preloaded modules; a worker forked from one that has not loaded ours loads them itself, as a
@@ -48,8 +48,7 @@ def cores() -> int:
 def workers_for(work_s: float, most: int) -> int:
     """How many worker processes (at most `most`) to start for about `work_s` CPU-seconds of work:
     one per WORK_PER_WORKER_S. 1 means none: the work runs in the calling process, which starts
-    nothing. (On 2 cores, with workers forked from the fork server, 480x640 examples on 2 workers
-    took as long as in-process for 1,000, 0.8 to 0.9 of the time for 2,000 to 3,000, 0.7 for 4,000.)"""
+    nothing: below that, starting workers costs about what they save."""
     return max(1, min(most, int(work_s / WORK_PER_WORKER_S)))
 
 

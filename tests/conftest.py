@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-import tarfile
 from pathlib import Path
 
 import pytest
@@ -29,19 +28,22 @@ def official_archive() -> Path:
 
 
 @pytest.fixture(scope="session")
-def official_data_dir(official_archive, tmp_path_factory) -> Path:
-    """The release's data/ folder, extracted once per test session."""
-    root = tmp_path_factory.mktemp("odms-release")
-    with tarfile.open(official_archive) as tar:
-        tar.extractall(root, filter="data")
-    return root / "data"
+def official_entry(official_archive) -> Path:
+    """The release extracted and imported, cached across runs (tests/official_cache.py)."""
+    from official_cache import official_entry
+
+    from odms_data.importers.release import import_release
+
+    return official_entry(official_archive, import_release)
 
 
 @pytest.fixture(scope="session")
-def official_stores(official_data_dir, tmp_path_factory) -> dict[str, Path]:
-    """The eight official splits imported once per session: split name -> store path."""
-    from odms_data.importers.release import import_release
+def official_data_dir(official_entry) -> Path:
+    """The release's data/ folder (read-only)."""
+    return official_entry / "data"
 
-    out = tmp_path_factory.mktemp("odms-stores")
-    import_release(official_data_dir, out)
-    return {name: out / f"{name}.zarr" for name in OFFICIAL_SPLITS}
+
+@pytest.fixture(scope="session")
+def official_stores(official_entry) -> dict[str, Path]:
+    """The eight official splits, imported: split name -> store path (read-only)."""
+    return {name: official_entry / "stores" / f"{name}.zarr" for name in OFFICIAL_SPLITS}

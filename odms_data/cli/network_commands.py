@@ -91,7 +91,7 @@ def train(ctx, model, radial, run, val, iterations, batch_size, lr, val_every, n
 
     Adam, L1 loss on the model's label, validation on the --val stores every --val-every
     iterations (best.pt keeps the best weights, last.pt where a rerun resumes), curves in
-    curves.csv and curves.png. Layout: schemas/TRAINING.md.
+    curves.csv and curves.png. Layout: docs/TRAINING.md.
 
     \b
     Examples:

@@ -3,7 +3,7 @@
 `transforms` makes the paper's network inputs; `sources` gives examples as dicts of NumPy
 arrays; `numpy_loader` batches them with no framework; `grain_loader`, `torch_loader` and
 `tf_loader` wrap them for grain (JAX), PyTorch and TensorFlow and are imported only when asked
-for (named so that none shadows its framework's package). See schemas/LOADERS.md.
+for (named so that none shadows its framework's package). See docs/LOADERS.md.
 """
 
 from .numpy_loader import Batches, store_batches, stream_batches

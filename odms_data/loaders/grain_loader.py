@@ -19,7 +19,7 @@ and its iterators' get_state/set_state resume a run exactly.
 
 Draw the stream with grain's threads, as above: the drawing releases the GIL, so threads draw
 batches in parallel and hand them over as they are, where mp_prefetch puts every batch in a fresh
-shared memory block whose pages are all faulted in anew (schemas/LOADERS.md, "Throughput"). Give
+shared memory block whose pages are all faulted in anew (docs/LOADERS.md, "Throughput"). Give
 `to_iter_dataset` a small prefetch buffer: by default grain reads up to 500 elements ahead, and
 here an element is a whole batch (128 MB for 512 examples).
 """

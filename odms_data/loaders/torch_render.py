@@ -3,7 +3,7 @@
 rounding.
 
 The CPU makes the examples' random draws and each frame's polygon (object_model,
-batch_render.frame_geometry: about 0.1 ms an example); the device does the rest,
+batch_render.frame_geometry); the device does the rest,
 for all frames at once, on canvases grouped by size:
 
 - the pixels each contour passes through (the float64 operations of raster.py's marking in the

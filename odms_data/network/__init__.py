@@ -3,5 +3,5 @@
 `variants` names the three networks (what each learns and which distances it sees), torch-free;
 `odn` is the architecture; `run_folder` the files of a training run; `training` the paper's
 recipe on the generated stream; `prediction` a trained network over stores. Everything but
-`variants` needs PyTorch (the `torch` extra). See schemas/TRAINING.md.
+`variants` needs PyTorch (the `torch` extra). See docs/TRAINING.md.
 """

@@ -75,8 +75,8 @@ class ODN(nn.Module):
 
 def build(v: Variant, n_obs: int, radial: bool) -> ODN:
     """The network of variant `v` for n_obs observations, with or without the radial image, its
-    convolutions in the channels-last layout (the same network; a step is about 1.8x as fast on a
-    CPU: benchmarks/train_step.py)."""
+    convolutions in the channels-last layout (the same network, faster on a CPU:
+    benchmarks/train_step.py)."""
     if n_obs < 2:
         raise InputError(f"ODN needs at least 2 observations, got n_obs={n_obs}")
     model = ODN(n_obs + radial, v.n_distances(n_obs))

@@ -1,4 +1,4 @@
-"""The files of a training run (schemas/TRAINING.md) and the configuration that names the run.
+"""The files of a training run (docs/TRAINING.md) and the configuration that names the run.
 
     RUN/config.json   the TrainConfig, and the software that wrote it
     RUN/last.pt       the latest checkpoint: what a resumed run continues from

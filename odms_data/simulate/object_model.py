@@ -130,7 +130,7 @@ def spaced_points(rng: np.random.Generator, n: int, min_gap: float, tries: int) 
     from the last point back to the first, and |dx + dy| rather than the distance.
 
     Without a spacing rule thin slivers are common, and VOS-DE on the simulated set lands about
-    one point above the official normal set. schemas/FIDELITY.md compares the rules.
+    one point above the official normal set. docs/FIDELITY.md compares the rules.
     """
     return _spaced_points([rng], n, min_gap, tries)[0]
 

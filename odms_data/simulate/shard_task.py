@@ -1,7 +1,7 @@
 """What one shard task of a generated store is and what it returns; shards.py runs it.
 
 Light: the process that hands tasks out (to local workers or a Dask cluster) imports this, not
-the renderer, whose imports (Numba, OpenCV) cost it 0.4 CPU-seconds it would never use.
+the renderer, whose imports (Numba, OpenCV) it would pay for and never use.
 """
 
 from __future__ import annotations

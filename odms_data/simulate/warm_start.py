@@ -1,8 +1,8 @@
 """Imported by the fork server that worker pools fork their workers from (parallel.worker_pool):
 the renderer's imports and compiled kernels, loaded there once, so that every worker starts warm.
 
-A spawned worker spent 1.6 CPU-seconds (2-core machine) importing the renderer and loading its
-kernels before its first task; a forked one inherits them. Importing this module runs each kernel
+A spawned worker would import the renderer and load its kernels itself before its first task; a
+forked one inherits them. Importing this module runs each kernel
 once, on the paths the generator and the loaders take: one example generated (not written) and
 one drawn at training size as coverage and as 0/1 masks.
 """

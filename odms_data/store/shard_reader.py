@@ -1,7 +1,7 @@
 """Reading mask chunks straight from a local sharded Zarr store, without zarr's async machinery.
 
-zarr spends about 2 ms of CPU per read call whatever its size, most of the cost of reading one
-example; reading the shard index and the chunk bytes directly takes about a sixth of that. Only
+zarr's fixed cost per read call, whatever its size, is most of the cost of reading one example;
+reading the shard index and the chunk bytes directly avoids it. Only
 the layout StoreWriter makes is read this way (shard_layout.py); `ShardReader.open` returns None
 for anything else, which `Store` then reads through zarr.
 """

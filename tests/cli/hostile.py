@@ -1,5 +1,5 @@
 """The hostile catalogue: what a user who means harm, or has bad luck, gives the command line,
-by class of broken promise (README, "Errors"; issue 15), each with the promise it checks.
+by class of broken promise (docs/ERRORS.md; issue 15), each with the promise it checks.
 
 Every case runs one command in a fresh folder holding copies of what it needs and checks, besides
 its own expectations, the promises every command keeps: the expected exit code; on an error one

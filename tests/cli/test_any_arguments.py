@@ -1,5 +1,5 @@
 """Property-based: every command with random arguments over random broken stores keeps the
-promises of the README's "Errors": exit code 0, 1 (validate), 2 or 130; at most one error line;
+promises of docs/ERRORS.md: exit code 0, 1 (validate), 2 or 130; at most one error line;
 nothing outside the output paths touched; no output left half-written."""
 
 from __future__ import annotations

@@ -96,7 +96,7 @@ def test_an_interrupted_run_resumes_where_it_stopped(tmp_path, val_store):
     assert r.exit_code == 0, r.output
     assert f"resuming from iteration {stopped}" in r.stderr
     # the same batches and random state: the same curve, up to float sums whose order a busy CPU
-    # changed now and then (schemas/TRAINING.md); another batch or dropout mask would be far off
+    # changed now and then (docs/TRAINING.md); another batch or dropout mask would be far off
     straight_rows, run_rows = rows(straight / "curves.csv"), rows(run / "curves.csv")
     assert [(c["iteration"], c["set"]) for c in run_rows] == [(c["iteration"], c["set"])
                                                               for c in straight_rows]

@@ -1,0 +1,126 @@
+"""The official release, extracted and imported once for every test run, not once a run.
+
+A cache entry is the release's data/ folder and its eight imported stores, in
+~/.cache/odms-data/test-stores/<key>/ (`ODMS_TEST_CACHE` names another folder). The key is the
+store format's version, the archive's sha256 and a digest of the code that decides the stores'
+content (odms_data/importers/, odms_data/store/, odms_data/benchmark.py), so a change to any of
+them imports anew instead of testing stale stores. An entry is built in a `.partial` sibling and
+renamed into place complete; its files are made read-only, so a test that writes into them fails
+instead of spoiling later runs. A `files.json` lists every file's size and, for the stores, its
+sha256; an entry that does not match it (a file lost, truncated or changed) is rebuilt. Entries
+of other keys unused for a week are removed.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import stat
+import tarfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+from odms_data.store.format import FORMAT_VERSION
+
+PACKAGE = Path(__file__).resolve().parents[1] / "odms_data"
+CONTENT_CODE = ("importers", "store", "benchmark.py")
+LISTING = "files.json"
+UNUSED_DAYS = 7  # entries of other keys (older code, another archive) unused this long are removed
+
+
+def cache_root() -> Path:
+    default = Path.home() / ".cache" / "odms-data" / "test-stores"
+    return Path(os.environ.get("ODMS_TEST_CACHE", default))
+
+
+def sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def code_digest() -> str:
+    h = hashlib.sha256()
+    for name in CONTENT_CODE:
+        root = PACKAGE / name
+        for path in sorted(root.rglob("*.py")) if root.is_dir() else [root]:
+            h.update(str(path.relative_to(PACKAGE)).encode() + b"\0" + path.read_bytes() + b"\0")
+    return h.hexdigest()
+
+
+def cache_key(archive: Path) -> str:
+    return f"format{FORMAT_VERSION}-archive{sha256(archive)[:16]}-code{code_digest()[:16]}"
+
+
+def _listing(entry: Path) -> dict[str, list]:
+    """Every file's size; a store file's sha256 too (the PNGs are many, and their sizes suffice)."""
+    files: dict[str, list] = {}
+    for path in sorted(p for p in entry.rglob("*") if p.is_file() and p.name != LISTING):
+        rel = path.relative_to(entry).as_posix()
+        files[rel] = [path.stat().st_size, sha256(path) if rel.startswith("stores/") else None]
+    return files
+
+
+def _intact(entry: Path) -> bool:
+    listing = entry / LISTING
+    if not listing.is_file():
+        return False
+    try:
+        return json.loads(listing.read_text()) == _listing(entry)
+    except (OSError, ValueError):
+        return False
+
+
+def _writable(root: Path) -> None:
+    for path in [root, *root.rglob("*")]:
+        if not path.is_symlink():
+            path.chmod(path.stat().st_mode | stat.S_IWUSR)
+
+
+def _remove(path: Path) -> None:
+    if path.exists():
+        _writable(path)
+        shutil.rmtree(path)
+
+
+def _read_only(root: Path) -> None:
+    for path in [*root.rglob("*"), root]:
+        if not path.is_symlink():
+            path.chmod(path.stat().st_mode & ~(stat.S_IWUSR | stat.S_IWGRP | stat.S_IWOTH))
+
+
+def official_entry(archive: Path, import_release: Callable[[Path, Path], object]) -> Path:
+    """The cache entry for `archive`: `data/` (the release's folder) and `stores/` (the eight
+    imported stores), built with `import_release(data_dir, out_dir)` when absent or damaged."""
+    root = cache_root()
+    entry = root / cache_key(archive)
+    if _intact(entry):
+        os.utime(entry)  # in use: not pruned
+        return entry
+    root.mkdir(parents=True, exist_ok=True)
+    partial = root / f"{entry.name}.partial-{os.getpid()}"
+    _remove(partial)
+    partial.mkdir()
+    try:
+        with tarfile.open(archive) as tar:
+            tar.extractall(partial, filter="data")
+        import_release(partial / "data", partial / "stores")
+        (partial / LISTING).write_text(json.dumps(_listing(partial)))
+        _read_only(partial)
+        _remove(entry)  # damaged, or left by a run that stopped while it was replaced
+        try:
+            partial.rename(entry)
+        except OSError:  # another run put an entry in place first: use it
+            if not _intact(entry):
+                raise
+    finally:
+        _remove(partial)
+    for other in root.iterdir():
+        if other != entry and other.is_dir() and time.time() - other.stat().st_mtime > UNUSED_DAYS * 86400:
+            _remove(other)
+    return entry
