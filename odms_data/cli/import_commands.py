@@ -5,13 +5,13 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from contextlib import AbstractContextManager
-from pathlib import Path
 
 import click
 
 from ..benchmark import OFFICIAL_SPLITS
 from ..errors import InputError
 from ..importers.plan import DEFAULT_THRESHOLD
+from ..importers.result import ImportResult
 from ..importers.synthia_protocol import (
     CAMERAS,
     PAPER_SELECTION,
@@ -53,15 +53,10 @@ class _Bars:
         self.close()
 
 
-def _skipped(oddities: list[dict[str, str]]) -> list[str]:
-    return [o["detail"] for o in oddities if o["kind"] == "skipped"]
-
-
-def _report_skipped(oddities: list[dict[str, str]], what: str) -> None:
-    skipped = _skipped(oddities)
-    if skipped:
-        click.echo(f"skipped {len(skipped)} {what}:")
-        for detail in skipped:
+def _report_skipped(result: ImportResult, what: str) -> None:
+    if result.skipped:
+        click.echo(f"skipped {len(result.skipped)} {what}:")
+        for detail in result.skipped:
             click.echo(f"  {detail}")
 
 
@@ -117,26 +112,24 @@ def odms(data_dir, out_dir, splits, fmt, overwrite, skip_bad, no_verify, workers
     from ..importers.release import import_release
 
     with _Bars() as bars:
-        result = import_release(
+        results = import_release(
             data_dir, out_dir, splits=list(splits) or None, fmt=fmt, overwrite=overwrite,
             progress=bars, skip_bad=skip_bad, verify=not no_verify, workers=workers,
         )
-    suffix = ".zarr" if fmt == "zarr" else ".h5"
     if as_json:
         echo_json({"stores": [
-            {"split": attrs.split, "path": str(Path(out_dir) / f"{name}{suffix}"),
-             "examples": attrs.counts["examples"], "frames": attrs.counts["frames"],
-             "oddities": len(attrs.oddities), "matches_manifest": attrs.split == name,
-             "digest": attrs.digest, "skipped": _skipped(attrs.oddities)}
-            for name, attrs in result.items()]})
+            {"split": r.attrs.split, "path": r.path, "examples": r.attrs.counts["examples"],
+             "frames": r.attrs.counts["frames"], "oddities": len(r.attrs.oddities),
+             "matches_manifest": r.matches_manifest, "digest": r.attrs.digest, "skipped": r.skipped}
+            for r in results]})
         return
-    for name, attrs in result.items():
-        path = Path(out_dir) / f"{name}{suffix}"
-        verdict = (f"matches splits/{name}.json" if attrs.split == name
-                   else f"differs from splits/{name}.json, stored as split {attrs.split}")
-        click.echo(f"wrote {path}: {attrs.counts['examples']} examples, {attrs.counts['frames']} frames, "
-                   f"{len(attrs.oddities)} oddities recorded; {verdict}")
-        _report_skipped(attrs.oddities, f"folder(s) of {name}")
+    for r in results:
+        verdict = (f"matches splits/{r.name}.json" if r.matches_manifest
+                   else f"differs from splits/{r.name}.json, stored as split {r.attrs.split}")
+        counts = r.attrs.counts
+        click.echo(f"wrote {r.path}: {counts['examples']} examples, {counts['frames']} frames, "
+                   f"{len(r.attrs.oddities)} oddities recorded; {verdict}")
+        _report_skipped(r, f"folder(s) of {r.name}")
 
 
 @import_group.command("recording")
@@ -181,19 +174,19 @@ def recording(mask_dir, positions, output, windows, n_obs, threshold, d1, name, 
     if n_obs is not None and window_list is None:
         raise InputError("--n-obs applies to windowed examples; give --windows too")
     with _Bars() as bars:
-        path, attrs = import_recording(
+        result = import_recording(
             mask_dir, positions, output, windows=window_list, n_obs=n_obs or 10, threshold=threshold,
             d1=d1, name=name, fmt=fmt, overwrite=overwrite, skip_bad=skip_bad, workers=workers,
-            progress=lambda done, total: bars(str(mask_dir), done, total),
+            progress=bars,
         )
+    counts = result.attrs.counts
     if as_json:
-        echo_json({"output": str(path), "examples": attrs.counts["examples"],
-                               "labelled": attrs.counts["labelled"], "frames": attrs.counts["frames"],
-                               "digest": attrs.digest, "skipped": _skipped(attrs.oddities)})
+        echo_json({"output": result.path, "examples": counts["examples"], "labelled": counts["labelled"],
+                   "frames": counts["frames"], "digest": result.attrs.digest, "skipped": result.skipped})
         return
-    click.echo(f"wrote {path}: {attrs.counts['examples']} example(s) ({attrs.counts['labelled']} labelled), "
-               f"{attrs.counts['frames']} frames, digest {attrs.digest}")
-    _report_skipped(attrs.oddities, "row(s) or file(s)")
+    click.echo(f"wrote {result.path}: {counts['examples']} example(s) ({counts['labelled']} labelled), "
+               f"{counts['frames']} frames, digest {result.attrs.digest}")
+    _report_skipped(result, "row(s) or file(s)")
 
 
 @import_group.command("synthia")
@@ -258,20 +251,22 @@ def synthia(seq_dirs, output, camera, classes, frames, stride, min_area, no_bord
         border=not no_border, occluded=not no_occluded, move=move, d1=d1_range, max_gap=max_gap,
     )
     with _Bars() as bars:
-        path, attrs, summary = import_synthia(
+        result = import_synthia(
             seq_dirs, output, camera=camera, selection=selection, classes_given=classes is not None,
             convention=PoseConvention(matrix_order, pose, forward), name=name, fmt=fmt, overwrite=overwrite,
             skip_bad=skip_bad, workers=workers, progress=None if as_json else bars,
         )
+    assert result.summary is not None  # the SYNTHIA importer always sums up its sequences
     if as_json:
-        echo_json(summary)
+        echo_json(result.summary.to_json())
         return
-    for seq in summary["sequences"]:
+    for seq in result.summary.sequences:
         def tally(counts: dict[str, int]) -> str:
             return ", ".join(f"{n} {c}" for c, n in counts.items()) or "none"
 
-        click.echo(f"{seq['name']}: {seq['frames']} frames; tracks: {tally(seq['tracks'])}; "
-                   f"examples: {tally(seq['examples'])}")
-    click.echo(f"wrote {path}: {attrs.counts['examples']} examples, {attrs.counts['frames']} frames, "
+        click.echo(f"{seq.name}: {seq.frames} frames; tracks: {tally(seq.tracks)}; "
+                   f"examples: {tally(seq.examples)}")
+    attrs = result.attrs
+    click.echo(f"wrote {result.path}: {attrs.counts['examples']} examples, {attrs.counts['frames']} frames, "
                f"{len(attrs.oddities)} oddities recorded, digest {attrs.digest}")
-    _report_skipped(attrs.oddities, "frame(s) or sequence(s)")
+    _report_skipped(result, "frame(s) or sequence(s)")

@@ -117,7 +117,7 @@ def _check_content(store: Store, report: Report, progress: Callable[[int], None]
         P.append(f"d1 of example {name(i)} is {d1[i]}, but the depth at its first frame is {first[i]} "
                  f"({len(differ)} such example(s))")
     n_obs = (fi >= 0).sum(axis=1)
-    excused = {o["example"] for o in store.attrs.oddities if o["kind"] == Z_ODDITY}
+    excused = {o.subject for o in store.attrs.oddities if o.kind == Z_ODDITY}
     zz = np.where(fi >= 0, z[np.maximum(fi, 0)], np.inf)
     with np.errstate(invalid="ignore"):  # inf - inf in the padding of shorter examples
         steps = np.diff(zz, axis=1)
