@@ -93,7 +93,7 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
     if entry:
         e = entry_from_report(report, name, citation=citation, link=link, n_obs=n_obs,
                               predictions_sha256=preds.sha256)
-        write_text(entry, json.dumps(e, indent=2, ensure_ascii=False, allow_nan=False) + "\n",
+        write_text(entry, json.dumps(e.to_json(), indent=2, ensure_ascii=False, allow_nan=False) + "\n",
                    overwrite=overwrite, option="--entry")
         click.echo(f"wrote {entry}", err=True)
 
@@ -186,8 +186,8 @@ def leaderboard(family, metric, folder, as_json):
     if as_json:
         keys = ("name", "n_obs", "training_data", "radial_input", "figures", "link", "citation")
         echo_json([
-            {"rank": rank, **{k: e.get(k) for k in keys}, "all": family_all(e, family),
-             "results": e["results"][family]}
+            {"rank": rank, **{k: getattr(e, k) for k in keys}, "all": family_all(e, family),
+             "results": e.results[family]}
             for rank, e in enumerate(ranked(entries, family), 1)])
         return
     click.echo(render_markdown(entries, family, metric), nl=False)
