@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import torch
@@ -23,6 +22,7 @@ from ..loaders.torch_loader import StoreDataset
 from ..outputs import check_new_file
 from ..store.reader import open_store
 from . import odn
+from .checkpoint import Checkpoint
 from .odn import ODN
 from .run_folder import BEST, LAST, RunFolder, TrainConfig
 from .variants import Variant, variant
@@ -61,13 +61,14 @@ def store_batches(path: str, config: TrainConfig, workers: int, pin: bool) -> It
     return DataLoader(dataset, batch_size=EVAL_BATCH, num_workers=workers, pin_memory=pin)
 
 
-def read_checkpoint(path: Path) -> dict[str, Any]:
-    """A checkpoint's content, on the CPU (the random states must be there; load_state_dict moves
-    weights and Adam's state to their module's device)."""
+def read_checkpoint(path: Path) -> Checkpoint:
+    """A checkpoint, on the CPU (the random states must be there; load_state_dict moves weights
+    and Adam's state to their module's device)."""
     try:
-        return torch.load(path, map_location="cpu", weights_only=True)
+        saved = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as e:  # a truncated or foreign file: torch raises many kinds
         raise InputError(f"{path}: not a readable checkpoint ({type(e).__name__}: {e})") from None
+    return Checkpoint.from_json(saved, str(path))
 
 
 def load_trained(folder: RunFolder, which: str, device: torch.device) -> tuple[ODN, TrainConfig, int]:
@@ -81,11 +82,11 @@ def load_trained(folder: RunFolder, which: str, device: torch.device) -> tuple[O
     saved = read_checkpoint(path)
     model = odn.build(variant(config.model), config.n_obs, config.radial).to(device)
     try:
-        model.load_state_dict(saved["model"])
+        model.load_state_dict(saved.model)
     except (KeyError, RuntimeError):
         raise InputError(f"{path}: its weights do not fit the run's network ({config.model}, "
                          f"n_obs {config.n_obs}, radial {config.radial}); was config.json edited?") from None
-    return model.eval(), config, int(saved["iteration"])
+    return model.eval(), config, saved.iteration
 
 
 @torch.inference_mode()
