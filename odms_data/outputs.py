@@ -99,7 +99,7 @@ def check_new_file(
     if p.is_dir():
         raise OutputExistsError(f"{what}: is a folder; give a file name")
     if (p.exists() or p.is_symlink()) and not overwrite:
-        raise OutputExistsError(f"{what}: already exists; pass --overwrite to replace it")
+        raise OutputExistsError(f"{what}: already exists", fix="overwrite")
     if suffixes and p.suffix.lower() not in suffixes:
         raise InputError(f"{what}: name the file *{' or *'.join(suffixes)}")
 
@@ -199,11 +199,10 @@ def atomic_folder(
     with output_lock(path):
         if target.exists() or target.is_symlink():
             if not overwrite:
-                raise OutputExistsError(f"{path}: already exists; pass --overwrite to replace it")
+                raise OutputExistsError(f"{path}: already exists", fix="overwrite")
             what = "is a symbolic link" if target.is_symlink() else foreign(target)
             if what:
-                raise OutputExistsError(f"{path}: {what}; --overwrite replaces only what odms-data wrote, so "
-                                        "move it away or choose another output")
+                raise OutputExistsError(f"{path}: {what}", fix="overwrite-ours")
         partial = Path(f"{path}.partial")
         try:
             remove(partial)

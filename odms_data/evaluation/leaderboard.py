@@ -168,7 +168,7 @@ def entry_from_report(
 ) -> LeaderboardEntry:
     """A computed leaderboard entry from a complete score of official splits, schema-checked."""
     if report.partial:
-        raise InputError("a leaderboard entry needs every example scored; drop --allow-partial")
+        raise InputError("a leaderboard entry needs every example scored", fix="complete-score")
     results: dict[str, dict] = {}
     for s in report.scores:
         off = official_name(s.split, s.domain)

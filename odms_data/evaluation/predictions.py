@@ -320,7 +320,7 @@ def check_against(
             raise InputError(
                 f"{path}: {len(absent)} of {len(required[split])} examples of split {split} have no "
                 "prediction "
-                f"(first: {_listing(absent)}); pass --allow-partial to score a subset"
+                f"(first: {_listing(absent)})", fix="allow-partial"
             )
     return missing
 

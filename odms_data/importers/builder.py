@@ -29,9 +29,8 @@ class BadFiles(InputError):
 
     def __init__(self, failures: list[tuple[int, str]]) -> None:
         self.failures = failures
-        more = f" (and {len(failures) - 1} more bad file(s); --skip-bad imports the rest)" \
-            if len(failures) > 1 else ""
-        super().__init__(failures[0][1] + more)
+        more = f" (and {len(failures) - 1} more bad file(s))" if len(failures) > 1 else ""
+        super().__init__(failures[0][1] + more, fix="skip-bad" if more else "")
 
 
 def _width(values: list[str]) -> int:

@@ -151,7 +151,7 @@ def make_plan(
             raise InputError(f"{mask_dir}: window of {too_long[0]} frames does not fit the recording's "
                              f"{n} frames")
         if n_obs > min(windows):
-            raise InputError(f"--n-obs {n_obs} is more than the shortest window ({min(windows)} frames)")
+            raise InputError(f"n_obs {n_obs} is more than the shortest window ({min(windows)} frames)")
         digits = max(2, len(str(n - 1)))
         spans = protocol_windows(n, windows, n_obs)
         ids = [f"{name}/w{w}-{s:0{digits}d}" for w, s, _ in spans]
@@ -175,7 +175,7 @@ def _check_options(mask_dir: Path, threshold: int, n_obs: int, windows: list[int
     if not 0 <= threshold <= 255:
         raise InputError(f"threshold {threshold} is outside 0..255")
     if n_obs < 2:
-        raise InputError(f"--n-obs {n_obs}: at least 2 observations are needed")
+        raise InputError(f"n_obs {n_obs}: at least 2 observations are needed")
     if windows is not None and (not windows or min(windows) < 2):
         raise InputError("windows must be lengths of at least 2 frames, e.g. 10,15,20,25,30")
     if d1 is not None and not (math.isfinite(d1) and d1 > 0):
@@ -236,7 +236,7 @@ def import_recording(
     name = store_name(name, out, mask_dir.resolve().name, "recording")
     files, z, depth, skipped = read_positions(positions, mask_dir, skip_bad)
     if depth is not None and d1 is not None:
-        raise InputError(f"{positions}: has a depth column; give either per-frame depth or --d1, not both")
+        raise InputError(f"{positions}: has a depth column; give either per-frame depth or d1, not both")
     if depth is None:  # a known d1 means a static object: depth = d1 + z - smallest z
         depth = d1 + (z - z.min()) if d1 is not None and len(z) else np.full(len(z), math.nan)
     source = RecordingImporter(name, mask_dir, files, z, depth, windows, n_obs, threshold, skipped, skip_bad)

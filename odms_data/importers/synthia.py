@@ -338,7 +338,7 @@ def scan_sequences(
 ) -> Scanned:
     """Read the camera parameters and scan the label and depth images of every sequence."""
     if camera not in CAMERAS:
-        raise InputError(f"--camera {camera}: not a SYNTHIA camera; one of {', '.join(CAMERAS)}")
+        raise InputError(f"camera {camera}: not a SYNTHIA camera; one of {', '.join(CAMERAS)}")
     skips = Skips(skip_bad)
     sequences = _find_sequences(seq_dirs, camera, skips)
     poses = _read_poses(sequences, convention, skips)

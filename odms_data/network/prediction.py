@@ -38,9 +38,9 @@ def pick_device(name: str | None) -> torch.device:
     try:
         device = torch.device(name)
     except RuntimeError:
-        raise InputError(f"--device '{name}' is not a device name (cpu, cuda, cuda:1, ...)") from None
+        raise InputError(f"device '{name}' is not a device name (cpu, cuda, cuda:1, ...)") from None
     if device.type == "cuda" and not torch.cuda.is_available():
-        raise InputError(f"--device {name}: PyTorch sees no CUDA device on this machine")
+        raise InputError(f"device {name}: PyTorch sees no CUDA device on this machine")
     return device
 
 

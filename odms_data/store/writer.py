@@ -89,11 +89,10 @@ def check_new_store(path: str, overwrite: bool) -> None:
     if not (target.exists() or target.is_symlink()):
         return
     if not overwrite:
-        raise StoreExistsError(f"{path}: already exists; pass --overwrite to replace it")
+        raise StoreExistsError(f"{path}: already exists", fix="overwrite")
     what = _not_a_store(target)
     if what:
-        raise StoreExistsError(f"{path}: {what}; --overwrite replaces only an odms-data store or an "
-                               "empty folder, so move it away or choose another output")
+        raise StoreExistsError(f"{path}: {what}", fix="overwrite-store")
 
 
 def _check_suffix(path: str, fmt: str) -> None:
@@ -104,11 +103,11 @@ def _check_suffix(path: str, fmt: str) -> None:
         return
     suffix = Path(path).suffix.lower()
     if fmt == "zarr" and suffix in HDF5_SUFFIXES:
-        raise InputError(f"{path}: the name says HDF5 ({suffix}) but the format asked for is zarr; "
-                         "name it *.zarr or ask for --format hdf5")
+        raise InputError(f"{path}: the name says HDF5 ({suffix}) but the format asked for is zarr",
+                         fix="name-zarr")
     if fmt == "hdf5" and suffix == ".zarr":
-        raise InputError(f"{path}: the name says Zarr (.zarr) but the format asked for is hdf5; "
-                         "name it *.h5 or ask for --format zarr")
+        raise InputError(f"{path}: the name says Zarr (.zarr) but the format asked for is hdf5",
+                         fix="name-hdf5")
 
 
 class StoreWriter:
@@ -265,7 +264,7 @@ def _check_new_url_store(url: str, overwrite: bool) -> None:
     if not fs.exists(root):
         return
     if not overwrite:
-        raise StoreExistsError(f"{url}: already exists; pass --overwrite to replace it")
+        raise StoreExistsError(f"{url}: already exists", fix="overwrite")
     entries = fs.ls(root, detail=False)
     if not entries:
         return
@@ -275,8 +274,8 @@ def _check_new_url_store(url: str, overwrite: bool) -> None:
     except (OSError, ValueError, AttributeError):
         ours = False
     if not ours:
-        raise StoreExistsError(f"{url}: holds {len(entries)} entries that are not an odms-data store; "
-                               "--overwrite replaces only an odms-data store, so choose another output")
+        raise StoreExistsError(f"{url}: holds {len(entries)} entries that are not an odms-data store",
+                               fix="overwrite-url-store")
 
 
 def write_shard_masks(
