@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable
 from contextlib import AbstractContextManager
 
@@ -96,7 +95,7 @@ def import_group() -> None:
               help="Leave out bad folders, import the rest and report what was skipped.")
 @click.option("--no-verify", is_flag=True,
               help="Accept content that differs from splits/<split>.json (stored as <split>-modified).")
-@click.option("--workers", type=click.IntRange(min=1), default=os.cpu_count() or 1,
+@click.option("--workers", type=click.IntRange(min=1), default=None,
               show_default="all cores", help="Decoding processes.")
 @click.option("--json", "as_json", is_flag=True, help="Print what was written as JSON.")
 def odms(data_dir, out_dir, splits, fmt, overwrite, skip_bad, no_verify, workers, as_json):
@@ -153,7 +152,7 @@ def odms(data_dir, out_dir, splits, fmt, overwrite, skip_bad, no_verify, workers
               help="Store backend (default: from the output suffix, else zarr).")
 @click.option("--overwrite", is_flag=True, help="Replace an existing store.")
 @click.option("--skip-bad", is_flag=True, help="Leave out bad rows and files, report what was skipped.")
-@click.option("--workers", type=click.IntRange(min=1), default=os.cpu_count() or 1,
+@click.option("--workers", type=click.IntRange(min=1), default=None,
               show_default="all cores", help="Decoding processes.")
 @click.option("--json", "as_json", is_flag=True, help="Print what was written as JSON.")
 def recording(mask_dir, positions, output, windows, n_obs, threshold, d1, name, fmt, overwrite,
@@ -226,7 +225,7 @@ def recording(mask_dir, positions, output, windows, n_obs, threshold, d1, name, 
 @click.option("--skip-bad", is_flag=True,
               help="Leave out bad frames and sequences, import the rest and report what was skipped.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
-@click.option("--workers", type=click.IntRange(min=1), default=os.cpu_count() or 1,
+@click.option("--workers", type=click.IntRange(min=1), default=None,
               show_default="all cores", help="Decoding processes.")
 def synthia(seq_dirs, output, camera, classes, frames, stride, min_area, no_border, no_occluded, move,
             d1_range, max_gap, matrix_order, pose, forward, name, fmt, overwrite, skip_bad, as_json, workers):

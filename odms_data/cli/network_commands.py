@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 import sys
 import time
 from pathlib import Path
@@ -11,6 +10,7 @@ from typing import Any
 import click
 
 from ..network.variants import VARIANTS
+from ..parallel import cores
 from ..simulate.params import PRESETS
 from .progress import PERIOD, duration, progress
 from .score_commands import DATA_HELP
@@ -78,7 +78,7 @@ class _TrainProgress:
               help="Generator preset of the training stream (perturb: the paper's ODN_*p).")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="Seed of the stream and of the initial weights (not 20200001-20200004: the splits').")
-@click.option("--workers", type=click.IntRange(min=0), default=os.cpu_count() or 1, show_default="all cores",
+@click.option("--workers", type=click.IntRange(min=0), default=None, show_default="all cores",
               help="Processes generating the stream (0: in this process).")
 @click.option("--device", default=None, help="cpu, cuda, cuda:1, ... (default: a GPU when there is one).")
 @click.option("--overwrite", is_flag=True, help="Start the run in the folder again from iteration 0.")
@@ -108,7 +108,8 @@ def train(ctx, model, radial, run, val, iterations, batch_size, lr, val_every, n
                          iterations=iterations, batch_size=batch_size, lr=lr, val_every=val_every, val=stores)
     shown = _TrainProgress(run)
     try:
-        s = run_training(run, config, workers=workers, device=device, overwrite=overwrite, report=shown)
+        s = run_training(run, config, workers=cores() if workers is None else workers, device=device,
+                         overwrite=overwrite, report=shown)
     except KeyboardInterrupt:
         shown.close()
         at = shown.status.checkpoint if shown.status else 0
@@ -132,7 +133,7 @@ def train(ctx, model, radial, run, val, iterations, batch_size, lr, val_every, n
 @click.option("-o", "--output", type=click.Path(), required=True, help="Predictions CSV to write.")
 @click.option("--checkpoint", type=click.Choice(["best", "last"]), default="best", show_default=True,
               help="Which of the run's checkpoints predicts.")
-@click.option("--workers", type=click.IntRange(min=0), default=os.cpu_count() or 1, show_default="all cores",
+@click.option("--workers", type=click.IntRange(min=0), default=None, show_default="all cores",
               help="Processes reading the stores (0: in this process).")
 @click.option("--device", default=None, help="cpu, cuda, cuda:1, ... (default: a GPU when there is one).")
 @click.option("--overwrite", is_flag=True, help="Replace an existing predictions file.")
@@ -158,7 +159,8 @@ def predict(run, data, output, checkpoint, workers, device, overwrite):
         with open_store(str(path)) as s:
             total += len(s)
     with progress(total, f"predicting with {run}") as update:
-        rows, config, at = run_prediction(folder, stores, output, which=checkpoint, workers=workers,
+        rows, config, at = run_prediction(folder, stores, output, which=checkpoint,
+                                          workers=cores() if workers is None else workers,
                                           device=device, overwrite=overwrite, progress=update)
     click.echo(f"wrote {output}: {rows} predictions of {config.model} ({checkpoint} checkpoint, "
                f"iteration {at}) for {', '.join(sorted(stores))}")
