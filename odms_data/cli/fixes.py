@@ -19,6 +19,7 @@ FIXES = {
     "allow-partial": "pass --allow-partial to score a subset",
     "complete-score": "drop --allow-partial",
     "skip-bad": "--skip-bad imports the rest",
+    "import": "see `odms-data import`",
     "data": f"give --data DIR or set {ENV_VAR}; default {DEFAULT_DATA}",
     "no-stores": f"give --data DIR or set {ENV_VAR} (see `odms-data generate` and `odms-data import`)",
 }
