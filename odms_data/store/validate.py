@@ -161,6 +161,11 @@ def _check_masks(store: Store, report: Report, progress: Callable[[int], None] |
     report.digest = digest
     if digest != store.attrs.digest:
         report.problems.append(f"content digest {digest} differs from the recorded {store.attrs.digest}")
+    _check_manifest(store, report, digest)
+
+
+def _check_manifest(store: Store, report: Report, digest: str) -> None:
+    """The recomputed digest against the manifest of the store's split, when it is an official one."""
     if store.attrs.split in split_names():
         try:
             manifest = load_manifest(store.attrs.split)
