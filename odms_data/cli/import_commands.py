@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from contextlib import AbstractContextManager
-
 import click
 
 from ..benchmark import OFFICIAL_SPLITS
@@ -20,36 +17,7 @@ from ..importers.synthia_protocol import (
     parse_classes,
 )
 from . import echo_json
-from .progress import progress
-
-
-class _Bars:
-    """One progress bar per label, restarted when the count goes back (a re-run after skipping)."""
-
-    def __init__(self) -> None:
-        self.cm: AbstractContextManager[Callable[[int], None]] | None = None
-        self.label: str | None = None
-        self.last = 0
-
-    def __call__(self, label: str, done: int, total: int) -> None:
-        if label != self.label or done < self.last:
-            self.close()
-            cm = progress(total, f"importing {label}")
-            self.update = cm.__enter__()
-            self.cm, self.label, self.last = cm, label, 0
-        self.update(done - self.last)
-        self.last = done
-
-    def close(self) -> None:
-        if self.cm is not None:
-            self.cm.__exit__(None, None, None)
-            self.cm = None
-
-    def __enter__(self) -> _Bars:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
+from .progress import Bars
 
 
 def _report_skipped(result: ImportResult, what: str) -> None:
@@ -110,7 +78,7 @@ def odms(data_dir, out_dir, splits, fmt, overwrite, skip_bad, no_verify, workers
     """
     from ..importers.release import import_release
 
-    with _Bars() as bars:
+    with Bars("importing {}") as bars:
         results = import_release(
             data_dir, out_dir, splits=list(splits) or None, fmt=fmt, overwrite=overwrite,
             progress=bars, skip_bad=skip_bad, verify=not no_verify, workers=workers,
@@ -172,7 +140,7 @@ def recording(mask_dir, positions, output, windows, n_obs, threshold, d1, name, 
     window_list = _counts("--windows", windows)
     if n_obs is not None and window_list is None:
         raise InputError("--n-obs applies to windowed examples; give --windows too")
-    with _Bars() as bars:
+    with Bars("importing {}") as bars:
         result = import_recording(
             mask_dir, positions, output, windows=window_list, n_obs=n_obs or 10, threshold=threshold,
             d1=d1, name=name, fmt=fmt, overwrite=overwrite, skip_bad=skip_bad, workers=workers,
@@ -249,7 +217,7 @@ def synthia(seq_dirs, output, camera, classes, frames, stride, min_area, no_bord
         frames=tuple(_counts("--frames", frames) or ()), stride=stride, min_area=min_area,
         border=not no_border, occluded=not no_occluded, move=move, d1=d1_range, max_gap=max_gap,
     )
-    with _Bars() as bars:
+    with Bars("importing {}") as bars:
         result = import_synthia(
             seq_dirs, output, camera=camera, selection=selection, classes_given=classes is not None,
             convention=PoseConvention(matrix_order, pose, forward), name=name, fmt=fmt, overwrite=overwrite,

@@ -12,7 +12,7 @@ import click
 from ..network.variants import VARIANTS
 from ..parallel import cores
 from ..simulate.params import PRESETS
-from .progress import PERIOD, duration, progress
+from .progress import PERIOD, Bars, duration
 from .score_commands import DATA_HELP
 
 
@@ -149,18 +149,13 @@ def predict(run, data, output, checkpoint, workers, device, overwrite):
     from ..evaluation.ground_truth import data_locations, find_stores
     from ..network.prediction import predict as run_prediction
     from ..network.run_folder import RunFolder
-    from ..store.reader import open_store
 
     folder = RunFolder(run)
     folder.config()  # a run folder? (before the stores are opened)
     stores = find_stores(data_locations(data))
-    total = 0
-    for path in stores.values():
-        with open_store(str(path)) as s:
-            total += len(s)
-    with progress(total, f"predicting with {run}") as update:
+    with Bars(f"predicting {{}} with {run}") as bars:
         rows, config, at = run_prediction(folder, stores, output, which=checkpoint,
                                           workers=cores() if workers is None else workers,
-                                          device=device, overwrite=overwrite, progress=update)
+                                          device=device, overwrite=overwrite, progress=bars)
     click.echo(f"wrote {output}: {rows} predictions of {config.model} ({checkpoint} checkpoint, "
                f"iteration {at}) for {', '.join(sorted(stores))}")

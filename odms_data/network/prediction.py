@@ -92,23 +92,27 @@ def load_trained(folder: RunFolder, which: str, device: torch.device) -> tuple[O
 @torch.inference_mode()
 def predict_store(
     model: torch.nn.Module, config: TrainConfig, path: str, device: torch.device, workers: int,
-    progress: Callable[[int], None] = lambda n: None,
+    progress: Callable[[str, int, int], None] = lambda split, done, total: None,
 ) -> tuple[str, list[str], np.ndarray]:
-    """(split, example ids, predicted d1) of every example of the store at `path`."""
+    """(split, example ids, predicted d1) of every example of the store at `path`;
+    `progress(split, examples done, examples)` after each batch."""
     with open_store(path) as s:
         split, ids, n = s.attrs.split, s.example_ids, len(s)
     v = variant(config.model)
     d1 = np.empty(n)
+    done = 0
     for batch in store_batches(path, config, workers, device.type == "cuda"):
         _, d = outputs_and_depths(model, v, to_device(batch, device))
         d1[batch["index"].numpy()] = d.cpu().numpy()
-        progress(len(batch["index"]))
+        done += len(batch["index"])
+        progress(split, done, n)
     return split, ids, d1
 
 
 def predict(
     folder: RunFolder, stores: dict[str, Path], output: str | Path, *, which: str = "best", workers: int = 0,
-    device: str | None = None, overwrite: bool = False, progress: Callable[[int], None] = lambda n: None,
+    device: str | None = None, overwrite: bool = False,
+    progress: Callable[[str, int, int], None] = lambda split, done, total: None,
 ) -> tuple[int, TrainConfig, int]:
     """Write the predictions file (schemas/PREDICTIONS.md) of the run's `which` checkpoint for every
     example of `stores` ({split: path}); returns (rows, the run's config, the checkpoint's iteration)."""
