@@ -20,6 +20,7 @@ FIXES = {
     "complete-score": "drop --allow-partial",
     "skip-bad": "--skip-bad imports the rest",
     "import": "see `odms-data import`",
+    "synthia-selection": "see --frames, --move, --d1-range, --min-area in schemas/SYNTHIA.md",
     "data": f"give --data DIR or set {ENV_VAR}; default {DEFAULT_DATA}",
     "no-stores": f"give --data DIR or set {ENV_VAR} (see `odms-data generate` and `odms-data import`)",
 }

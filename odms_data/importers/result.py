@@ -77,7 +77,7 @@ class ImportResult:
 
     @property
     def skipped(self) -> list[str]:
-        """What was left out (--skip-bad), one line each."""
+        """What was left out as bad (skip_bad), one line each."""
         return skipped_details(self.attrs.oddities)
 
     @property

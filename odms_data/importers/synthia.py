@@ -519,8 +519,7 @@ def import_synthia(
         plan, counts = plan_store(scanned, selection, split)
         if not plan.ids:
             names = ", ".join(s.name for s in scanned.sequences)
-            raise InputError(f"no window of {names} passes the selection rules (see --frames, --move, "
-                             "--d1-range, --min-area in schemas/SYNTHIA.md)")
+            raise InputError(f"no window of {names} passes the selection rules", fix="synthia-selection")
         attrs = SynthiaImporter(plan).write(out, fmt, pool, label=f"{out.name} (writing)",
                                             overwrite=overwrite, progress=progress)
     result = ImportResult(str(out), split, attrs)

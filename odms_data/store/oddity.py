@@ -1,5 +1,5 @@
 """`Oddity`: one thing an imported store's data shows that is recorded rather than refused (z not
-increasing, an empty mask) or left out with --skip-bad (kind "skipped"); the store's `oddities`
+increasing, an empty mask) or a bad source left out of an import (kind "skipped"); the store's `oddities`
 attribute holds them."""
 
 from __future__ import annotations
