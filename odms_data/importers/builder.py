@@ -4,6 +4,7 @@ An importer describes the store as a `Plan` (plan.py: mask source, z and depth o
 frame rows, label, id and source of every example). `build_store` hands shard-aligned frame
 ranges to the decoding workers (decoding.py), which write the masks; the parent writes the small
 arrays, streams the content digest and records the oddities the data shows (oddities.py).
+`Importer` is every importer's front door: it plans, drops bad sources and retries, and writes.
 """
 
 from __future__ import annotations
