@@ -11,7 +11,13 @@ from click.testing import CliRunner
 
 from odms_data.cli import main
 from odms_data.errors import InputError
-from odms_data.evaluation.leaderboard import entry_problems, family_all, load_entries, render_markdown
+from odms_data.evaluation.leaderboard import (
+    LeaderboardEntry,
+    entry_problems,
+    family_all,
+    load_entries,
+    render_markdown,
+)
 from odms_data.evaluation.metrics import SplitScore, percent_errors, score_split
 from odms_data.evaluation.metrics import family_all as report_all
 from odms_data.evaluation.predictions import HEADER
@@ -130,6 +136,13 @@ def test_leaderboard_is_sorted_by_all_and_readme_shows_it():
     assert alls == sorted(alls) and rows[0].startswith("| 1 | [DBox]")
     readme = (resource_dir("schemas").parent / "README.md").read_text()
     assert board in readme, "README.md's leaderboard is stale: paste `odms-data leaderboard` into it"
+
+
+def test_an_entry_is_checked_when_made():
+    entry = load_entries()[0]
+    assert LeaderboardEntry.from_json(entry.to_json(), "again") == entry
+    with pytest.raises(InputError, match="entry 'x': not a valid leaderboard entry"):
+        LeaderboardEntry(name="x", method="x", figures="guessed", citation=None, link=None, results={})
 
 
 def test_leaderboard_rejects_an_invalid_entry(tmp_path):
