@@ -2,7 +2,14 @@
 
 
 class OdmsError(Exception):
-    """Base class: a problem with the user's input or data, reported without a traceback."""
+    """Base class: a problem with the user's input or data, reported without a traceback.
+
+    The message says what is wrong; `fix`, when there is one, names the remedy (e.g. "overwrite")
+    for a front end to spell with its own options (the command line's: cli/fixes.py)."""
+
+    def __init__(self, *args: object, fix: str = "") -> None:
+        super().__init__(*args)
+        self.fix = fix
 
 
 class InputError(OdmsError):

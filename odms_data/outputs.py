@@ -103,13 +103,12 @@ def refuse_existing(where: str, exists: bool, overwrite: bool, foreign: Callable
     if not exists:
         return
     what = foreign()
-    if what and kind is FILE:  # a folder where a file goes: no --overwrite would help
+    if what and kind is FILE:  # a folder where a file goes: no overwriting would help
         raise kind.exists_error(f"{where}: {what}")
     if not overwrite:
-        raise kind.exists_error(f"{where}: already exists; pass --overwrite to replace it")
+        raise kind.exists_error(f"{where}: already exists", fix="overwrite")
     if what:
-        raise kind.exists_error(f"{where}: {what}; --overwrite replaces only what odms-data wrote, so "
-                                "move it away or choose another output")
+        raise kind.exists_error(f"{where}: {what}", fix="overwrite-ours")
 
 
 def _make_parents(path: Path) -> list[Path]:

@@ -44,8 +44,9 @@ def test_a_file_replaced_as_it_goes_survives_a_full_disk(tmp_path):
 
 def test_existing_paths_folders_and_suffixes_are_refused(tmp_path):
     (tmp_path / "a.csv").write_text("x")
-    with pytest.raises(OutputExistsError, match="already exists; pass --overwrite"):
+    with pytest.raises(OutputExistsError, match="already exists") as refused:
         check_replaceable(tmp_path / "a.csv", False, option="-o")
+    assert refused.value.fix == "overwrite"
     with pytest.raises(OutputExistsError, match="is a folder"):
         check_replaceable(tmp_path, True, option="-o")
     with pytest.raises(InputError, match=r"name the file \*\.csv"):

@@ -152,7 +152,9 @@ class OdmsGroup(click.Group):
         except (click.exceptions.Exit, click.ClickException, click.Abort):
             raise
         except (OdmsError, OSError) as e:
-            click.echo(f"odms-data: error: {one_line(e)}", err=True)
+            from .fixes import with_fix
+
+            click.echo(f"odms-data: error: {one_line(with_fix(e))}", err=True)
             ctx.exit(2)
         except KeyboardInterrupt as e:
             signum = e.signum if isinstance(e, Interrupted) else signal.SIGINT

@@ -7,8 +7,7 @@ import json
 import click
 
 from ..errors import InputError
-from ..simulate.params import DEFAULT_EXAMPLES_PER_SHARD, PRESETS, GeneratorParams
-from ..simulate.params import preset as make_preset
+from ..simulate.params import DEFAULT_EXAMPLES_PER_SHARD, PRESETS, merged_params
 from . import echo_json
 from .progress import progress
 
@@ -65,29 +64,27 @@ def generate(split_name, count, preset, seed, n_obs, params, store_split, output
       odms-data generate -n 2560000 --scheduler tcp://head:8786 -o s3://lab/odms/train.zarr
     """
     from ..simulate.generate_store import generate as generate_store
-    from ..store.manifests import check_against_manifest, load_manifest
+    from ..simulate.generate_store import split_recipe
+    from ..store.manifests import check_against_manifest
 
     if scheduler and workers is not None:
         raise InputError("--workers and --scheduler exclude each other; the cluster has its own workers")
     overrides = _parse_param(params)
     manifest = None
     if split_name:
-        manifest = load_manifest(split_name)
-        if manifest.kind != "generated":
-            raise InputError(f"split '{split_name}' is imported, not generated; see `odms-data import`")
+        recipe = split_recipe(split_name)
         given = [o for o, v in (("-n", count), ("--preset", preset), ("--seed", seed),
                                 ("--n-obs", n_obs), ("--param", params), ("--name", store_split)) if v]
         if given:
             raise InputError(f"--split {split_name} fixes its parameters; drop {', '.join(given)}")
-        gen = manifest.generator or {}
-        count, preset, seed = manifest.count, gen["preset"], gen["seed"]
-        overrides, store_split = dict(gen.get("params", {})), split_name
+        manifest, count, preset, seed = recipe.manifest, recipe.count, recipe.preset, recipe.seed
+        overrides, store_split = recipe.overrides, split_name
     elif count is None:
         raise InputError("give --split NAME or -n COUNT")
     if n_obs is not None:
         overrides["n_obs"] = n_obs
     preset = preset or "standard"
-    gen_params = GeneratorParams.from_json({**make_preset(preset).to_json(), **overrides})
+    gen_params = merged_params(preset, overrides)
     store_split = store_split or "generated"
     if output is None:
         output = f"{store_split}.h5" if fmt == "hdf5" else f"{store_split}.zarr"

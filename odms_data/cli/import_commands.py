@@ -2,16 +2,12 @@
 
 from __future__ import annotations
 
-import os
-from collections.abc import Callable
-from contextlib import AbstractContextManager
-from pathlib import Path
-
 import click
 
 from ..benchmark import OFFICIAL_SPLITS
 from ..errors import InputError
 from ..importers.plan import DEFAULT_THRESHOLD
+from ..importers.result import ImportResult
 from ..importers.synthia_protocol import (
     CAMERAS,
     PAPER_SELECTION,
@@ -21,47 +17,13 @@ from ..importers.synthia_protocol import (
     parse_classes,
 )
 from . import echo_json, echo_text, one_line
-from .progress import progress
+from .progress import Bars
 
 
-class _Bars:
-    """One progress bar per label, restarted when the count goes back (a re-run after skipping)."""
-
-    def __init__(self) -> None:
-        self.cm: AbstractContextManager[Callable[[int], None]] | None = None
-        self.label: str | None = None
-        self.last = 0
-
-    def __call__(self, label: str, done: int, total: int) -> None:
-        if label != self.label or done < self.last:
-            self.close()
-            cm = progress(total, f"importing {label}")
-            self.update = cm.__enter__()
-            self.cm, self.label, self.last = cm, label, 0
-        self.update(done - self.last)
-        self.last = done
-
-    def close(self) -> None:
-        if self.cm is not None:
-            self.cm.__exit__(None, None, None)
-            self.cm = None
-
-    def __enter__(self) -> _Bars:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
-
-
-def _skipped(oddities: list[dict[str, str]]) -> list[str]:
-    return [o["detail"] for o in oddities if o["kind"] == "skipped"]
-
-
-def _report_skipped(oddities: list[dict[str, str]], what: str) -> None:
-    skipped = _skipped(oddities)
-    if skipped:
-        echo_text(f"skipped {len(skipped)} {what}:")
-        for detail in skipped:
+def _report_skipped(result: ImportResult, what: str) -> None:
+    if result.skipped:
+        echo_text(f"skipped {len(result.skipped)} {what}:")
+        for detail in result.skipped:
             echo_text(f"  {one_line(detail)}")
 
 
@@ -101,7 +63,7 @@ def import_group() -> None:
               help="Leave out bad folders, import the rest and report what was skipped.")
 @click.option("--no-verify", is_flag=True,
               help="Accept content that differs from splits/<split>.json (stored as <split>-modified).")
-@click.option("--workers", type=click.IntRange(min=1), default=os.cpu_count() or 1,
+@click.option("--workers", type=click.IntRange(min=1), default=None,
               show_default="all cores", help="Decoding processes.")
 @click.option("--json", "as_json", is_flag=True, help="Print what was written as JSON.")
 def odms(data_dir, out_dir, splits, fmt, overwrite, skip_bad, no_verify, workers, as_json):
@@ -116,27 +78,25 @@ def odms(data_dir, out_dir, splits, fmt, overwrite, skip_bad, no_verify, workers
     """
     from ..importers.release import import_release
 
-    with _Bars() as bars:
-        result = import_release(
+    with Bars("importing {}") as bars:
+        results = import_release(
             data_dir, out_dir, splits=list(splits) or None, fmt=fmt, overwrite=overwrite,
             progress=bars, skip_bad=skip_bad, verify=not no_verify, workers=workers,
         )
-    suffix = ".zarr" if fmt == "zarr" else ".h5"
     if as_json:
         echo_json({"stores": [
-            {"split": attrs.split, "path": str(Path(out_dir) / f"{name}{suffix}"),
-             "examples": attrs.counts["examples"], "frames": attrs.counts["frames"],
-             "oddities": len(attrs.oddities), "matches_manifest": attrs.split == name,
-             "digest": attrs.digest, "skipped": _skipped(attrs.oddities)}
-            for name, attrs in result.items()]})
+            {"split": r.attrs.split, "path": r.path, "examples": r.attrs.counts["examples"],
+             "frames": r.attrs.counts["frames"], "oddities": len(r.attrs.oddities),
+             "matches_manifest": r.matches_manifest, "digest": r.attrs.digest, "skipped": r.skipped}
+            for r in results]})
         return
-    for name, attrs in result.items():
-        path = Path(out_dir) / f"{name}{suffix}"
-        verdict = (f"matches splits/{name}.json" if attrs.split == name
-                   else f"differs from splits/{name}.json, stored as split {attrs.split}")
-        echo_text(f"wrote {path}: {attrs.counts['examples']} examples, {attrs.counts['frames']} frames, "
-                   f"{len(attrs.oddities)} oddities recorded; {verdict}")
-        _report_skipped(attrs.oddities, f"folder(s) of {name}")
+    for r in results:
+        verdict = (f"matches splits/{r.name}.json" if r.matches_manifest
+                   else f"differs from splits/{r.name}.json, stored as split {r.attrs.split}")
+        counts = r.attrs.counts
+        echo_text(f"wrote {r.path}: {counts['examples']} examples, {counts['frames']} frames, "
+                   f"{len(r.attrs.oddities)} oddities recorded; {verdict}")
+        _report_skipped(r, f"folder(s) of {r.name}")
 
 
 @import_group.command("recording")
@@ -160,7 +120,7 @@ def odms(data_dir, out_dir, splits, fmt, overwrite, skip_bad, no_verify, workers
               help="Store backend (default: from the output suffix, else zarr).")
 @click.option("--overwrite", is_flag=True, help="Replace an existing store.")
 @click.option("--skip-bad", is_flag=True, help="Leave out bad rows and files, report what was skipped.")
-@click.option("--workers", type=click.IntRange(min=1), default=os.cpu_count() or 1,
+@click.option("--workers", type=click.IntRange(min=1), default=None,
               show_default="all cores", help="Decoding processes.")
 @click.option("--json", "as_json", is_flag=True, help="Print what was written as JSON.")
 def recording(mask_dir, positions, output, windows, n_obs, threshold, d1, name, fmt, overwrite,
@@ -180,20 +140,20 @@ def recording(mask_dir, positions, output, windows, n_obs, threshold, d1, name, 
     window_list = _counts("--windows", windows)
     if n_obs is not None and window_list is None:
         raise InputError("--n-obs applies to windowed examples; give --windows too")
-    with _Bars() as bars:
-        path, attrs = import_recording(
+    with Bars("importing {}") as bars:
+        result = import_recording(
             mask_dir, positions, output, windows=window_list, n_obs=n_obs or 10, threshold=threshold,
             d1=d1, name=name, fmt=fmt, overwrite=overwrite, skip_bad=skip_bad, workers=workers,
-            progress=lambda done, total: bars(str(mask_dir), done, total),
+            progress=bars,
         )
+    counts = result.attrs.counts
     if as_json:
-        echo_json({"output": str(path), "examples": attrs.counts["examples"],
-                               "labelled": attrs.counts["labelled"], "frames": attrs.counts["frames"],
-                               "digest": attrs.digest, "skipped": _skipped(attrs.oddities)})
+        echo_json({"output": result.path, "examples": counts["examples"], "labelled": counts["labelled"],
+                   "frames": counts["frames"], "digest": result.attrs.digest, "skipped": result.skipped})
         return
-    echo_text(f"wrote {path}: {attrs.counts['examples']} example(s) ({attrs.counts['labelled']} labelled), "
-               f"{attrs.counts['frames']} frames, digest {attrs.digest}")
-    _report_skipped(attrs.oddities, "row(s) or file(s)")
+    echo_text(f"wrote {result.path}: {counts['examples']} example(s) ({counts['labelled']} labelled), "
+               f"{counts['frames']} frames, digest {result.attrs.digest}")
+    _report_skipped(result, "row(s) or file(s)")
 
 
 @import_group.command("synthia")
@@ -233,7 +193,7 @@ def recording(mask_dir, positions, output, windows, n_obs, threshold, d1, name, 
 @click.option("--skip-bad", is_flag=True,
               help="Leave out bad frames and sequences, import the rest and report what was skipped.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
-@click.option("--workers", type=click.IntRange(min=1), default=os.cpu_count() or 1,
+@click.option("--workers", type=click.IntRange(min=1), default=None,
               show_default="all cores", help="Decoding processes.")
 def synthia(seq_dirs, output, camera, classes, frames, stride, min_area, no_border, no_occluded, move,
             d1_range, max_gap, matrix_order, pose, forward, name, fmt, overwrite, skip_bad, as_json, workers):
@@ -257,21 +217,23 @@ def synthia(seq_dirs, output, camera, classes, frames, stride, min_area, no_bord
         frames=tuple(_counts("--frames", frames) or ()), stride=stride, min_area=min_area,
         border=not no_border, occluded=not no_occluded, move=move, d1=d1_range, max_gap=max_gap,
     )
-    with _Bars() as bars:
-        path, attrs, summary = import_synthia(
+    with Bars("importing {}") as bars:
+        result = import_synthia(
             seq_dirs, output, camera=camera, selection=selection, classes_given=classes is not None,
             convention=PoseConvention(matrix_order, pose, forward), name=name, fmt=fmt, overwrite=overwrite,
             skip_bad=skip_bad, workers=workers, progress=None if as_json else bars,
         )
+    assert result.summary is not None  # the SYNTHIA importer always sums up its sequences
     if as_json:
-        echo_json(summary)
+        echo_json(result.summary.to_json())
         return
-    for seq in summary["sequences"]:
+    for seq in result.summary.sequences:
         def tally(counts: dict[str, int]) -> str:
             return ", ".join(f"{n} {c}" for c, n in counts.items()) or "none"
 
-        echo_text(f"{seq['name']}: {seq['frames']} frames; tracks: {tally(seq['tracks'])}; "
-                   f"examples: {tally(seq['examples'])}")
-    echo_text(f"wrote {path}: {attrs.counts['examples']} examples, {attrs.counts['frames']} frames, "
+        echo_text(f"{seq.name}: {seq.frames} frames; tracks: {tally(seq.tracks)}; "
+                   f"examples: {tally(seq.examples)}")
+    attrs = result.attrs
+    echo_text(f"wrote {result.path}: {attrs.counts['examples']} examples, {attrs.counts['frames']} frames, "
                f"{len(attrs.oddities)} oddities recorded, digest {attrs.digest}")
-    _report_skipped(attrs.oddities, "frame(s) or sequence(s)")
+    _report_skipped(result, "frame(s) or sequence(s)")

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 import signal
 import sys
 import time
@@ -13,8 +12,9 @@ import click
 
 from ..errors import Interrupted
 from ..network.variants import VARIANTS
+from ..parallel import cores
 from ..simulate.params import PRESETS
-from .progress import PERIOD, duration, progress
+from .progress import PERIOD, Bars, duration
 from .score_commands import DATA_HELP
 
 
@@ -80,7 +80,7 @@ class _TrainProgress:
               help="Generator preset of the training stream (perturb: the paper's ODN_*p).")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="Seed of the stream and of the initial weights (not 20200001-20200004: the splits').")
-@click.option("--workers", type=click.IntRange(min=0), default=os.cpu_count() or 1, show_default="all cores",
+@click.option("--workers", type=click.IntRange(min=0), default=None, show_default="all cores",
               help="Processes generating the stream (0: in this process).")
 @click.option("--device", default=None, help="cpu, cuda, cuda:1, ... (default: a GPU when there is one).")
 @click.option("--overwrite", is_flag=True, help="Start the run in the folder again from iteration 0.")
@@ -110,7 +110,8 @@ def train(ctx, model, radial, run, val, iterations, batch_size, lr, val_every, n
                          iterations=iterations, batch_size=batch_size, lr=lr, val_every=val_every, val=stores)
     shown = _TrainProgress(run)
     try:
-        s = run_training(run, config, workers=workers, device=device, overwrite=overwrite, report=shown)
+        s = run_training(run, config, workers=cores() if workers is None else workers, device=device,
+                         overwrite=overwrite, report=shown)
     except KeyboardInterrupt as e:
         shown.close()
         at = shown.status.checkpoint if shown.status else 0
@@ -135,7 +136,7 @@ def train(ctx, model, radial, run, val, iterations, batch_size, lr, val_every, n
 @click.option("-o", "--output", type=click.Path(), required=True, help="Predictions CSV to write.")
 @click.option("--checkpoint", type=click.Choice(["best", "last"]), default="best", show_default=True,
               help="Which of the run's checkpoints predicts.")
-@click.option("--workers", type=click.IntRange(min=0), default=os.cpu_count() or 1, show_default="all cores",
+@click.option("--workers", type=click.IntRange(min=0), default=None, show_default="all cores",
               help="Processes reading the stores (0: in this process).")
 @click.option("--device", default=None, help="cpu, cuda, cuda:1, ... (default: a GPU when there is one).")
 @click.option("--overwrite", is_flag=True, help="Replace an existing predictions file.")
@@ -151,17 +152,13 @@ def predict(run, data, output, checkpoint, workers, device, overwrite):
     from ..evaluation.ground_truth import data_locations, find_stores
     from ..network.prediction import predict as run_prediction
     from ..network.run_folder import RunFolder
-    from ..store.reader import open_store
 
     folder = RunFolder(run)
     folder.config()  # a run folder? (before the stores are opened)
     stores = find_stores(data_locations(data))
-    total = 0
-    for path in stores.values():
-        with open_store(str(path)) as s:
-            total += len(s)
-    with progress(total, f"predicting with {run}") as update:
-        rows, config, at = run_prediction(folder, stores, output, which=checkpoint, workers=workers,
-                                          device=device, overwrite=overwrite, progress=update)
+    with Bars(f"predicting {{}} with {run}") as bars:
+        rows, config, at = run_prediction(folder, stores, output, which=checkpoint,
+                                          workers=cores() if workers is None else workers,
+                                          device=device, overwrite=overwrite, progress=bars)
     click.echo(f"wrote {output}: {rows} predictions of {config.model} ({checkpoint} checkpoint, "
                f"iteration {at}) for {', '.join(sorted(stores))}")

@@ -10,7 +10,7 @@ from __future__ import annotations
 import sys
 import time
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, contextmanager
 from typing import Any
 
 import click
@@ -77,3 +77,34 @@ def progress(total: int, label: str) -> Iterator[Callable[[int], None]]:
         shown.close()
     elif shown is not None:
         shown.__exit__(None, None, None)
+
+
+class Bars:
+    """`progress(label, done, total)` as one bar per label, titled `template.format(label)`, and
+    restarted when the count goes back (an import's re-run after skipping)."""
+
+    def __init__(self, template: str) -> None:
+        self.template = template
+        self.cm: AbstractContextManager[Callable[[int], None]] | None = None
+        self.label: str | None = None
+        self.last = 0
+
+    def __call__(self, label: str, done: int, total: int) -> None:
+        if label != self.label or done < self.last:
+            self.close()
+            cm = progress(total, self.template.format(label))
+            self.update = cm.__enter__()
+            self.cm, self.label, self.last = cm, label, 0
+        self.update(done - self.last)
+        self.last = done
+
+    def close(self) -> None:
+        if self.cm is not None:
+            self.cm.__exit__(None, None, None)
+            self.cm = None
+
+    def __enter__(self) -> Bars:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()

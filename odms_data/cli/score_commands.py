@@ -2,31 +2,21 @@
 
 from __future__ import annotations
 
-import difflib
 import json
-from collections.abc import Iterable
 from pathlib import Path
 
 import click
 
-from ..benchmark import FAMILIES, split_order
+from ..benchmark import FAMILIES
 from ..errors import InputError
 from ..evaluation.ground_truth import (
     DEFAULT_DATA,
     ENV_VAR,
-    SplitTruth,
-    data_locations,
-    find_stores,
-    load_truth,
-    stores_by_split,
-    verify_truth,
 )
 from ..evaluation.vosde import DEFAULT_N_OBS
-from ..evaluation.vosde import vosde as run_vosde
 from ..outputs import check_replaceable, write_text
-from ..store.reader import open_store
 from . import echo_json, echo_text
-from .progress import progress
+from .progress import Bars, progress
 
 DATA_HELP = (f"Folder of ground-truth stores, or one store (repeatable). Default: ${ENV_VAR} "
              f"(folders separated by ':'), else {DEFAULT_DATA}.")
@@ -60,10 +50,9 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
       odms-data score preds.csv --markdown --plot errors.png
       odms-data score preds.csv --name MyNet --entry leaderboard/mynet.json
     """
+    from ..evaluation.evaluate import Evaluation
     from ..evaluation.leaderboard import entry_from_report
-    from ..evaluation.predictions import read_predictions
     from ..evaluation.score_tables import render_markdown, render_text
-    from ..evaluation.scoring import score as score_predictions
 
     if as_json and markdown:
         raise InputError("give at most one of --json and --markdown")
@@ -78,12 +67,9 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
         plot_format(plot)  # before scoring: matplotlib is there and knows the suffix
     if entry:
         check_replaceable(entry, overwrite, option="--entry", suffixes=(".json",))
-    stores = find_stores(data_locations(data))
-    truths = {split: load_truth(path) for split, path in stores.items()}
-    preds = read_predictions(predictions, max_rows=sum(len(t.example_ids) for t in truths.values()))
-    report = score_predictions(preds, truths, allow_partial=allow_partial)
-    if entry and not report.partial:  # the digests an entry records, checked first (verify_truth)
-        _verify(truths[split] for split in sorted(report.digests))
+    with Bars("verifying {}") as bars:  # the digests an entry records, checked first
+        preds, report = Evaluation(data).score(predictions, allow_partial=allow_partial, verify=bool(entry),
+                                               progress=bars)
     if as_json:
         echo_json(report.to_json())
     elif markdown:
@@ -98,18 +84,9 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
     if entry:
         e = entry_from_report(report, name, citation=citation, link=link, n_obs=n_obs,
                               predictions_sha256=preds.sha256)
-        write_text(entry, json.dumps(e, indent=2, ensure_ascii=False, allow_nan=False) + "\n",
+        write_text(entry, json.dumps(e.to_json(), indent=2, ensure_ascii=False, allow_nan=False) + "\n",
                    overwrite=overwrite, option="--entry")
         click.echo(f"wrote {entry}", err=True)
-
-
-def _verify(truths: Iterable[SplitTruth]) -> None:
-    """Every store's content against its digest and manifest (verify_truth), with progress."""
-    for t in truths:
-        with open_store(t.path) as s:
-            frames = s.n_frames
-        with progress(frames, f"verifying {t.split}") as update:
-            verify_truth(t, lambda start, block: update(len(block)))
 
 
 @click.group()
@@ -138,44 +115,21 @@ def vosde(stores, data, n_obs, output, overwrite, as_json):
       odms-data baseline vosde robot-test driving-test --n-obs 5 -o vosde5.csv
       odms-data baseline vosde sim-val.zarr -o sim.csv && odms-data score sim.csv --data sim-val.zarr
     """
-    from ..evaluation.predictions import write_predictions
+    from ..evaluation.evaluate import Evaluation
 
     check_replaceable(output, overwrite, option="-o", suffixes=(".csv",))
-    paths = []
-    found = None
-    for s in stores:
-        if Path(s).exists():
-            paths.append(Path(s))
-            continue
-        found = found if found is not None else find_stores(data_locations(data))
-        if s not in found:
-            close = difflib.get_close_matches(s, list(found), n=1)
-            hint = f"; did you mean {close[0]}?" if close else ""
-            raise InputError(f"{s}: neither a store path nor a split in the data folders{hint} "
-                             f"(they hold: {', '.join(sorted(found))})")
-        paths.append(found[s])
-    if stores:
-        paths = list(stores_by_split(paths).values())  # a store named twice is scored once
-    else:
-        found = find_stores(data_locations(data))
-        paths = [found[s] for s in sorted(found, key=split_order)]
-    rows, counts = [], []
+    evaluation = Evaluation(data)
+    paths = evaluation.stores(stores)
     with progress(len(paths), "VOS-DE (stores)") as update:
-        for p in paths:
-            with open_store(str(p)) as s:
-                r = run_vosde(s, n_obs)
-            update(1)
-            rows += r.rows()
-            counts.append({"split": r.split, "examples": len(r.d1), "unsolvable": int(r.unsolvable.sum()),
-                           "empty_masks": int(r.empty_masks.sum())})
-    write_predictions(output, rows, overwrite=overwrite)
+        n_rows, counts = evaluation.baseline(paths, output, n_obs=n_obs, overwrite=overwrite, progress=update)
     if as_json:
-        echo_json({"output": output, "n_obs": n_obs, "predictions": len(rows), "splits": counts})
+        echo_json({"output": output, "n_obs": n_obs, "predictions": n_rows,
+                   "splits": [c.to_json() for c in counts]})
         return
     for c in counts:
-        echo_text(f"{c['split']}: {c['examples']} examples, {c['unsolvable']} unsolvable (predicted 0), "
-                   f"{c['empty_masks']} with an empty mask among the used observations")
-    click.echo(f"wrote {output}: {len(rows)} predictions (VOS-DE, n = {n_obs})")
+        echo_text(f"{c.split}: {c.examples} examples, {c.unsolvable} unsolvable (predicted 0), "
+                   f"{c.empty_masks} with an empty mask among the used observations")
+    click.echo(f"wrote {output}: {n_rows} predictions (VOS-DE, n = {n_obs})")
 
 
 @click.command()
@@ -200,8 +154,8 @@ def leaderboard(family, metric, folder, as_json):
     if as_json:
         keys = ("name", "n_obs", "training_data", "radial_input", "figures", "link", "citation")
         echo_json([
-            {"rank": rank, **{k: e.get(k) for k in keys}, "all": family_all(e, family),
-             "results": e["results"][family]}
+            {"rank": rank, **{k: getattr(e, k) for k in keys}, "all": family_all(e, family),
+             "results": e.results[family]}
             for rank, e in enumerate(ranked(entries, family), 1)])
         return
     click.echo(render_markdown(entries, family, metric), nl=False)

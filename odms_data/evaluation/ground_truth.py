@@ -53,10 +53,7 @@ def find_stores(locations: Iterable[Path]) -> dict[str, Path]:
         elif loc.is_dir():
             paths += sorted(p for p in loc.iterdir() if _is_store(p))
         else:
-            raise InputError(
-                f"{loc}: no such data folder or store (give --data DIR or set {ENV_VAR}; "
-                f"default {DEFAULT_DATA})"
-            )
+            raise InputError(f"{loc}: no such data folder or store", fix="data")
     return stores_by_split(paths, locations)
 
 
@@ -76,10 +73,7 @@ def stores_by_split(paths: Iterable[Path], locations: Sequence[Path] = ()) -> di
         found[split] = p
     if not found:
         where = ", ".join(str(loc) for loc in locations)
-        raise InputError(
-            f"no stores (*.zarr, *.h5) in {where}; give --data DIR or set {ENV_VAR} "
-            "(see `odms-data generate` and `odms-data import`)"
-        )
+        raise InputError(f"no stores (*.zarr, *.h5) in {where}", fix="no-stores")
     return found
 
 

@@ -10,6 +10,7 @@ import datetime
 import hashlib
 import json
 import math
+from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
 from typing import Any
@@ -44,27 +45,64 @@ def check_entry(entry: Any, where: str) -> dict:
     return entry
 
 
-def load_entries(folder: Path | None = None) -> list[dict]:
+@dataclass(frozen=True)
+class LeaderboardEntry:
+    """One method's entry (schemas/leaderboard-entry.schema.json), checked on construction.
+    `results[family][domain]` holds percent (and abs_m, median_percent, n); `results[family]["all"]`
+    the All as printed or computed."""
+
+    name: str
+    method: str
+    figures: str  # "published" or "computed"
+    citation: str | None
+    link: str | None
+    results: dict[str, dict[str, Any]]
+    n_obs: int | None = None
+    training_data: str | None = None
+    radial_input: bool | None = None
+    source: str | None = None
+    note: str | None = None
+    scored: dict[str, Any] | None = None  # computed entries: by, date, predictions_sha256, stores
+
+    def __post_init__(self) -> None:
+        check_entry(self.to_json(), f"entry {self.name!r}")
+
+    def to_json(self) -> dict[str, Any]:
+        d = {
+            "name": self.name, "method": self.method, "n_obs": self.n_obs,
+            "training_data": self.training_data, "radial_input": self.radial_input, "figures": self.figures,
+            "citation": self.citation,
+            "link": self.link, "source": self.source, "note": self.note, "results": self.results,
+            "scored": self.scored,
+        }
+        return {k: v for k, v in d.items() if v is not None or k not in ("source", "note", "scored")}
+
+    @classmethod
+    def from_json(cls, d: Any, where: str) -> LeaderboardEntry:
+        check_entry(d, where)
+        return cls(**d)
+
+
+def load_entries(folder: Path | None = None) -> list[LeaderboardEntry]:
     """Every entry of `folder` (default: the shipped leaderboard/), checked; names must be unique."""
     folder = Path(folder) if folder else resource_dir("leaderboard")
-    entries: list[dict] = []
+    entries: list[LeaderboardEntry] = []
     seen: dict[str, Path] = {}
     for path in sorted(folder.glob("*.json")):
         try:
-            entry = json.loads(path.read_text(encoding="utf-8"))
+            entry = LeaderboardEntry.from_json(json.loads(path.read_text(encoding="utf-8")), str(path))
         except json.JSONDecodeError as e:
             raise InputError(f"{path}: not valid JSON ({e})") from None
-        check_entry(entry, str(path))
-        if entry["name"] in seen:
-            raise InputError(f"{path}: entry name {entry['name']!r} is also used by {seen[entry['name']]}")
-        seen[entry["name"]] = path
+        if entry.name in seen:
+            raise InputError(f"{path}: entry name {entry.name!r} is also used by {seen[entry.name]}")
+        seen[entry.name] = path
         entries.append(entry)
     return entries
 
 
-def family_all(entry: dict, family: str) -> float | None:
+def family_all(entry: LeaderboardEntry, family: str) -> float | None:
     """The entry's All for `family`: as printed, else the mean of the four percent errors."""
-    fam = entry["results"].get(family, {})
+    fam = entry.results.get(family, {})
     if "all" in fam:
         return fam["all"]
     if all(d in fam for d in OFFICIAL_DOMAINS):
@@ -76,19 +114,19 @@ def _cell(x: float | None) -> str:
     return "–" if x is None else f"{x:.1f}"
 
 
-def ranked(entries: list[dict], family: str = "test") -> list[dict]:
+def ranked(entries: list[LeaderboardEntry], family: str = "test") -> list[LeaderboardEntry]:
     """The entries with results on `family`, sorted by All (lowest first; entries without All last)."""
     if family not in FAMILIES:
         raise InputError(f"family must be one of {', '.join(FAMILIES)}, got {family!r}")
 
     def key(e):
         a = family_all(e, family)
-        return (a is None, a if a is not None else 0.0, e["name"])
+        return (a is None, a if a is not None else 0.0, e.name)
 
-    return sorted((e for e in entries if e["results"].get(family)), key=key)
+    return sorted((e for e in entries if e.results.get(family)), key=key)
 
 
-def render_markdown(entries: list[dict], family: str = "test", metric: str = "percent") -> str:
+def render_markdown(entries: list[LeaderboardEntry], family: str = "test", metric: str = "percent") -> str:
     """A markdown table sorted by All (lowest first; entries without All last)."""
 
     if metric == "percent":
@@ -103,7 +141,7 @@ def render_markdown(entries: list[dict], family: str = "test", metric: str = "pe
         "|---|---|---|---|" + "---:|" * len(heads) + "---|",
     ]
     for rank, e in enumerate(ranked(entries, family), 1):
-        fam = e["results"][family]
+        fam = e.results[family]
         if metric == "percent":
             cells = [_cell(fam[d]["percent"]) if d in fam else "–" for d in OFFICIAL_DOMAINS]
             cells.append(_cell(family_all(e, family)))
@@ -113,14 +151,14 @@ def render_markdown(entries: list[dict], family: str = "test", metric: str = "pe
                 _cell(fam[d]["abs_m"] * scale[ABS_UNITS[d]]) if "abs_m" in fam.get(d, {}) else "–"
                 for d in OFFICIAL_DOMAINS
             ]
-        name = markdown_link(e["name"], e.get("link"))
-        n = str(e["n_obs"]) if e.get("n_obs") else "–"
-        train = markdown_text(e.get("training_data") or "–")
-        if e.get("radial_input"):
+        name = markdown_link(e.name, e.link)
+        n = str(e.n_obs) if e.n_obs else "–"
+        train = markdown_text(e.training_data or "–")
+        if e.radial_input:
             train += ", radial"
-        figures = "published" if e["figures"] == "published" else "computed here"
+        figures = "published" if e.figures == "published" else "computed here"
         lines.append(f"| {rank} | {name} | {n} | {train} | " + " | ".join(cells) + f" | {figures} |")
-    cites = sorted({e["citation"] for e in entries if e.get("citation") and e["results"].get(family)})
+    cites = sorted({e.citation for e in entries if e.citation and e.results.get(family)})
     lines += ["", "Sources: " + "; ".join(map(markdown_text, cites)) + "."]
     return "\n".join(lines) + "\n"
 
@@ -128,10 +166,10 @@ def render_markdown(entries: list[dict], family: str = "test", metric: str = "pe
 def entry_from_report(
     report: ScoreReport, name: str, *, method: str | None = None, citation: str | None = None,
     link: str | None = None, n_obs: int | None = None, predictions_sha256: str = "",
-) -> dict:
+) -> LeaderboardEntry:
     """A computed leaderboard entry from a complete score of official splits, schema-checked."""
     if report.partial:
-        raise InputError("a leaderboard entry needs every example scored; drop --allow-partial")
+        raise InputError("a leaderboard entry needs every example scored", fix="complete-score")
     results: dict[str, dict] = {}
     for s in report.scores:
         off = official_name(s.split, s.domain)
@@ -152,16 +190,15 @@ def entry_from_report(
             f"{report.predictions}: no official split (robot/driving/normal/perturb-val/test) was scored; "
             "a leaderboard entry needs at least one"
         )
-    entry = {
-        "name": name, "method": method or name, "n_obs": n_obs, "training_data": None,
-        "radial_input": None, "figures": "computed", "citation": citation, "link": link,
-        "source": f"scored by odms-data {__version__} from {Path(report.predictions).name}",
-        "results": results,
-        "scored": {
+    return LeaderboardEntry(
+        name=name, method=method or name, n_obs=n_obs, training_data=None,
+        radial_input=None, figures="computed", citation=citation, link=link,
+        source=f"scored by odms-data {__version__} from {Path(report.predictions).name}",
+        results=results,
+        scored={
             "by": f"odms-data {__version__}",
             "date": datetime.date.today().isoformat(),
             "predictions_sha256": predictions_sha256 or hashlib.sha256(b"").hexdigest(),
             "stores": {s: report.digests[s] for s in sorted(report.digests)},
         },
-    }
-    return check_entry(entry, f"entry {name!r}")
+    )

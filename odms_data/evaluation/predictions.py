@@ -99,6 +99,12 @@ def _check_header(path: str, first: str) -> None:
         raise InputError(
             f"{path}: header {first.strip()!r} has the columns in another order; write '{HEADER}'"
         )
+    hints = "; ".join(_header_hints(fields))
+    raise InputError(f"{path}: header {first.strip()!r} is not '{HEADER}': {hints}")
+
+
+def _header_hints(fields: list[str]) -> list[str]:
+    """What is wrong with each column of a header that is not HEADER."""
     hints = []
     for i, f in enumerate(fields):
         if i < len(COLUMNS) and f == COLUMNS[i]:
@@ -113,7 +119,7 @@ def _check_header(path: str, first: str) -> None:
         hints.append(f"column {i + 1} {f!r}" + (f" (did you mean {close[0]!r}?)" if close else ""))
     if len(fields) < len(COLUMNS):
         hints.append(f"missing {', '.join(repr(c) for c in COLUMNS[len(fields):])}")
-    raise InputError(f"{path}: header {first.strip()!r} is not '{HEADER}': {'; '.join(hints)}")
+    return hints
 
 
 class _Hashed(io.RawIOBase):
@@ -222,30 +228,44 @@ def read_predictions(path: str | Path, max_rows: int | None = None) -> Predictio
     """
     path = str(path)
     binary, hashed = _open(path)
-    rows: list[list[str]] = []
-    header = None
     with binary:
-        for first, lines in _blocks(path, binary):
-            if header is None:
-                k = next((i for i, line in enumerate(lines) if line.strip()), None)
-                if k is None:
-                    continue
-                if first + k > 1:
-                    raise InputError(f"{path}: line 1 is blank; the first line must be the header '{HEADER}'")
-                header = lines[k]
-                _check_header(path, header)
-                first, lines = first + k + 1, lines[k + 1 :]
-            rows += _parse(path, first, lines)
-            if max_rows is not None and len(rows) > max_rows:
-                raise InputError(
-                    f"{path}: has more than {max_rows} rows, but the ground-truth stores hold {max_rows} "
-                    "examples in all (one row each); are they the right stores?"
-                )
-    if header is None:
-        raise InputError(f"{path}: the file is empty; it needs the header '{HEADER}' and one row per example")
+        rows = _read_rows(path, binary, max_rows)
     rows = [r if len(r) == 3 else ["", "", ""] for r in rows]  # the others are blank (see _parse)
     frame = pd.DataFrame(rows, columns=list(COLUMNS), dtype=object)
     frame["line"] = np.arange(2, len(frame) + 2)
+    frame["d1"] = _check_cells(path, frame)
+    frame = frame.astype({"split": str, "example_id": str})
+    return Predictions(path, frame[["split", "example_id", "d1", "line"]].reset_index(drop=True),
+                       hashed.sha.hexdigest())
+
+
+def _read_rows(path: str, binary: io.BufferedReader, max_rows: int | None) -> list[list[str]]:
+    """The rows after the checked header, each a list of fields."""
+    rows: list[list[str]] = []
+    header = None
+    for first, lines in _blocks(path, binary):
+        if header is None:
+            k = next((i for i, line in enumerate(lines) if line.strip()), None)
+            if k is None:
+                continue
+            if first + k > 1:
+                raise InputError(f"{path}: line 1 is blank; the first line must be the header '{HEADER}'")
+            header = lines[k]
+            _check_header(path, header)
+            first, lines = first + k + 1, lines[k + 1 :]
+        rows += _parse(path, first, lines)
+        if max_rows is not None and len(rows) > max_rows:
+            raise InputError(
+                f"{path}: has more than {max_rows} rows, but the ground-truth stores hold {max_rows} "
+                "examples in all (one row each); are they the right stores?"
+            )
+    if header is None:
+        raise InputError(f"{path}: the file is empty; it needs the header '{HEADER}' and one row per example")
+    return rows
+
+
+def _check_cells(path: str, frame: pd.DataFrame) -> np.ndarray:
+    """The d1 column as numbers, after checking that no row is blank and every cell is given."""
     blank = (frame[list(COLUMNS)] == "").all(axis=1).to_numpy()
     if blank.any():
         raise InputError(f"{path}: blank lines in the file, {_lines(frame, blank)}")
@@ -264,10 +284,7 @@ def read_predictions(path: str | Path, max_rows: int | None = None) -> Predictio
     not_finite = ~np.isfinite(d1)
     if not_finite.any():
         raise InputError(f"{path}: d1 is NaN or infinite in {_lines(frame, not_finite, 'd1')}")
-    frame["d1"] = d1
-    frame = frame.astype({"split": str, "example_id": str})
-    return Predictions(path, frame[["split", "example_id", "d1", "line"]].reset_index(drop=True),
-                       hashed.sha.hexdigest())
+    return d1
 
 
 def check_against(
@@ -320,7 +337,7 @@ def check_against(
             raise InputError(
                 f"{path}: {len(absent)} of {len(required[split])} examples of split {split} have no "
                 "prediction "
-                f"(first: {_listing(absent)}); pass --allow-partial to score a subset"
+                f"(first: {_listing(absent)})", fix="allow-partial"
             )
     return missing
 

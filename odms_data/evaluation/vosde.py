@@ -78,7 +78,7 @@ def solve(sqrt_area: np.ndarray, dz: np.ndarray) -> tuple[np.ndarray, np.ndarray
 def vosde(store: Store, n_obs: int = DEFAULT_N_OBS) -> VosdeResult:
     """VOS-DE estimates for every example of `store` from its stored per-frame statistics."""
     if n_obs < 2:
-        raise InputError(f"--n-obs must be at least 2 (two unknowns), got {n_obs}")
+        raise InputError(f"n_obs must be at least 2 (two unknowns), got {n_obs}")
     fi, counts = store.frame_index, store.n_obs
     z, largest = store.z, store.largest_area
     E = len(fi)

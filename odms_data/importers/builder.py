@@ -4,11 +4,14 @@ An importer describes the store as a `Plan` (plan.py: mask source, z and depth o
 frame rows, label, id and source of every example). `build_store` hands shard-aligned frame
 ranges to the decoding workers (decoding.py), which write the masks; the parent writes the small
 arrays, streams the content digest and records the oddities the data shows (oddities.py).
+`Importer` is every importer's front door: it plans, drops bad sources and retries, and writes.
 """
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -34,9 +37,8 @@ class BadFiles(InputError):
 
     def __init__(self, failures: list[tuple[int, str]]) -> None:
         self.failures = failures
-        more = f" (and {len(failures) - 1} more bad file(s); --skip-bad imports the rest)" \
-            if len(failures) > 1 else ""
-        super().__init__(failures[0][1] + more)
+        more = f" (and {len(failures) - 1} more bad file(s))" if len(failures) > 1 else ""
+        super().__init__(failures[0][1] + more, fix="skip-bad" if more else "")
 
 
 def _width(values: list[str]) -> int:
@@ -81,27 +83,7 @@ def build_store(
                       plan.z[s : s + fps], plan.depth[s : s + fps], (H, W), plan.threshold, fpc, collect_all)
             for s in range(0, F, fps)
         ]
-        fd = np.empty((F, 32), np.uint8)
-        area = np.empty(F, np.int32)
-        failures: list[tuple[int, str]] = []
-        with workers.run(tasks) as results:
-            for r in results:
-                if r.failures:
-                    failures += r.failures
-                    if not collect_all:
-                        break
-                if failures:
-                    continue
-                stop = r.start + len(r.digests)
-                fd[r.start : stop] = r.digests
-                area[r.start : stop] = r.stats.area
-                w.write_frames(r.start, plan.z[r.start : stop], plan.depth[r.start : stop], r.stats)
-                for c, chunk in enumerate(r.deflated_chunks):
-                    w.write_mask_chunk(r.start + c * fpc, chunk)
-                if progress:
-                    progress(stop - r.start)
-        if failures:
-            raise BadFiles(failures)
+        fd, area = _write_frames(plan, w, workers, tasks, fpc, collect_all, progress)
 
         def digest_with(ids: list[str]) -> str:
             digest = StoreDigest(H, W, E)
@@ -121,11 +103,7 @@ def build_store(
             check(attrs)
         ids = plan.ids
         if attrs.split != plan.split:  # renamed by the check: ids start with their store's split
-            ids = [attrs.split + i[len(plan.split):] for i in plan.ids]
-            attrs.digest = digest_with(ids)
-            renamed = dict(zip(plan.ids, ids, strict=True))
-            for o in attrs.oddities:  # an example's oddity follows its id (skipped folders keep theirs)
-                o["example"] = renamed.get(o["example"], o["example"])
+            ids = _rename(plan, attrs, digest_with)
         _check_as_readers_do(plan, ids, attrs)
         w.write_examples(0, plan.frame_index, plan.d1, ids, plan.sources)
         w.commit(attrs)
@@ -145,3 +123,96 @@ def _check_as_readers_do(plan: Plan, ids: list[str], attrs: StoreAttrs) -> None:
     if problems:
         raise InputError(f"{plan.split}: the store would break the format's rules, so nothing was "
                          f"written: {problems[0]}")
+
+
+def _write_frames(
+    plan: Plan, w: StoreWriter, workers: Workers, tasks: list[FrameTask], fpc: int, collect_all: bool,
+    progress: Callable[[int], None] | None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Decode and write every frame; the frames' digests and mask areas, or BadFiles."""
+    F = len(plan.masks)
+    fd = np.empty((F, 32), np.uint8)
+    area = np.empty(F, np.int32)
+    failures: list[tuple[int, str]] = []
+    with workers.run(tasks) as results:
+        for r in results:
+            if r.failures:
+                failures += r.failures
+                if not collect_all:
+                    break
+            if failures:
+                continue
+            stop = r.start + len(r.digests)
+            fd[r.start : stop] = r.digests
+            area[r.start : stop] = r.stats.area
+            w.write_frames(r.start, plan.z[r.start : stop], plan.depth[r.start : stop], r.stats)
+            for c, chunk in enumerate(r.deflated_chunks):
+                w.write_mask_chunk(r.start + c * fpc, chunk)
+            if progress:
+                progress(stop - r.start)
+    if failures:
+        raise BadFiles(failures)
+    return fd, area
+
+
+def _rename(plan: Plan, attrs: StoreAttrs, digest_with: Callable[[list[str]], str]) -> list[str]:
+    """The ids of a split renamed by the check, which start with the new split; the digest and the
+    examples' oddities follow them (skipped folders keep theirs)."""
+    ids = [attrs.split + i[len(plan.split):] for i in plan.ids]
+    attrs.digest = digest_with(ids)
+    renamed = dict(zip(plan.ids, ids, strict=True))
+    attrs.oddities = [replace(o, subject=renamed.get(o.subject, o.subject)) for o in attrs.oddities]
+    return ids
+
+
+Progress = Callable[[str, int, int], None]  # (label, done, total): every importer's progress
+
+
+def _counter(label: str, total: int, progress: Progress | None) -> Callable[[int], None] | None:
+    """A step function that adds up the frames written and reports them under `label`."""
+    if progress is None:
+        return None
+    done = 0
+
+    def step(k: int) -> None:
+        nonlocal done
+        done += k
+        progress(label, done, total)
+
+    return step
+
+
+class Importer(ABC):
+    """One store's source, as every importer has it: a plan of the store, a way to leave out the
+    sources of bad frames, and a check before the commit. The base (`write`) owns the progress,
+    the writing and the retries that leave bad frames out."""
+
+    skip_bad: bool = False  # leave out what `drop` names and retry, rather than fail
+
+    @abstractmethod
+    def plan(self) -> Plan:
+        """The store as it stands, skipped sources left out and recorded in its oddities."""
+
+    def drop(self, plan: Plan, failures: list[tuple[int, str]]) -> None:
+        """Leave out the sources of these bad frames (frame row, message) of `plan`, recording
+        each as a skipped oddity; a source that cannot leave frames out raises BadFiles."""
+        raise BadFiles(failures)
+
+    def check(self, attrs: StoreAttrs) -> None:
+        """Runs before the commit; may amend the attributes (rename the split) or raise to abort.
+        By default there is nothing to check."""
+        return None
+
+    def write(self, out: str | Path, fmt: str | None, workers: Workers, *, label: str,
+              overwrite: bool = False, progress: Progress | None = None) -> StoreAttrs:
+        """Write the store at `out`, reporting `progress(label, frames done, frames total)`; with
+        skip_bad a bad frame's source is dropped and the store planned and written again."""
+        while True:
+            plan = self.plan()
+            try:
+                return build_store(plan, out, fmt, workers, overwrite=overwrite, collect_all=self.skip_bad,
+                                   progress=_counter(label, len(plan.masks), progress), check=self.check)
+            except BadFiles as e:
+                if not self.skip_bad:
+                    raise
+                self.drop(plan, e.failures)

@@ -19,7 +19,7 @@ from typing import TypeVar
 import numpy as np
 
 from ..errors import InputError
-from ..parallel import ordered_map, worker_pool
+from ..parallel import cores, ordered_map, worker_pool
 from ..store.digest import frame_digests
 from ..store.masks import FrameStats, pack, packed_width
 from ..store.writer import write_shard_masks
@@ -108,7 +108,7 @@ class Workers:
     """A pool of decoding processes (or none, for workers <= 1) shared by several stores."""
 
     def __init__(self, workers: int | None = None) -> None:
-        self.n = workers if workers is not None else (os.cpu_count() or 1)
+        self.n = workers if workers is not None else cores()
         self.pool: ProcessPoolExecutor | None = None
 
     def __enter__(self) -> Workers:

@@ -13,6 +13,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..store.manifests import split_names
+from ..store.oddity import SKIPPED, Oddity
 
 DEFAULT_THRESHOLD = 128  # grey masks (JPEG, anti-aliased): pixels >= this are object, on the 8-bit scale
 
@@ -52,9 +53,24 @@ class Plan:
     sources: list[str]
     frames_per_chunk: int
     frames_per_shard: int
-    oddities: list[dict[str, str]] = field(default_factory=list)
+    oddities: list[Oddity] = field(default_factory=list)
     threshold: int = DEFAULT_THRESHOLD
     id_room: int = 0  # bytes kept free in the id array, for a split renamed before the commit
+
+
+@dataclass
+class Skips:
+    """The sources an import leaves out: with `skip_bad` each is recorded as an oddity of kind
+    "skipped", otherwise its problem is raised."""
+
+    skip_bad: bool
+    oddities: list[Oddity] = field(default_factory=list)
+
+    def add(self, subject: str, message: str) -> None:
+        """Leave out `subject` for `message`, or raise InputError(message) without skip_bad."""
+        if not self.skip_bad:
+            raise InputError(message)
+        self.oddities.append(Oddity(SKIPPED, subject, message))
 
 
 def store_name(name: str | None, out: Path, fallback: str, kind: str) -> str:

@@ -11,19 +11,24 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..benchmark import protocol_windows
 from ..errors import InputError
 from ..paths import inside
-from ..store.format import StoreAttrs
-from .builder import BadFiles, build_store
+from ..store.oddity import SKIPPED, Oddity
+from .builder import Importer, Progress
 from .decoding import Workers
 from .mask_files import MaskFile, is_mask_file
-from .plan import DEFAULT_THRESHOLD, Plan, store_name
+from .plan import DEFAULT_THRESHOLD, Plan, Skips, store_name
+from .result import ImportResult
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 COLUMNS = ("frame", "z", "depth")
 FRAMES_PER_CHUNK = 32
@@ -42,11 +47,8 @@ def _number(text: str, where: str, column: str, *, blank_ok: bool = False) -> fl
     return value
 
 
-def read_positions(
-    positions: Path, mask_dir: Path, skip_bad: bool
-) -> tuple[list[Path], np.ndarray, np.ndarray | None, list[dict[str, str]]]:
-    """Mask files, z and depth (None without a depth column) of the listed frames, in CSV order,
-    and the frames skipped (skip_bad) as oddities; InputError for the first problem otherwise."""
+def _read_table(positions: Path) -> pd.DataFrame:
+    """The positions CSV as text, its columns checked."""
     import pandas as pd
 
     try:
@@ -65,61 +67,79 @@ def read_positions(
     for c in ("frame", "z"):
         if c not in table.columns:
             raise InputError(f"{positions}: no '{c}' column (the columns are frame, z[, depth])")
-    has_depth = "depth" in table.columns
-    files, z, depth, skipped = [], [], [], []
-    seen_frame: dict[str, int] = {}
-    seen_z: dict[float, int] = {}
-    seen_file: dict[tuple[int, int], tuple[int, str]] = {}  # (device, inode): a file named twice
-    named = set()  # frames named on any row, good or bad
+    return table
+
+
+@dataclass
+class _Rows:
+    """The CSV rows read so far: each frame, position and file by the line that listed it."""
+
+    mask_dir: Path
+    has_depth: bool
+    seen_frame: dict[str, int] = field(default_factory=dict)
+    seen_z: dict[float, int] = field(default_factory=dict)
+    seen_file: dict[tuple[int, int], tuple[int, str]] = field(default_factory=dict)  # (device, inode)
+    named: set[str] = field(default_factory=set)  # frames named on any row, good or bad
+
+    def read(self, row: Any, line: int, where: str) -> tuple[Path, float, float]:
+        """The row's mask file, z and depth; InputError for its first problem."""
+        frame = row.frame.strip()
+        self.named.add(os.path.normpath(frame))
+        if not frame:
+            raise InputError(f"{where}: frame is empty")
+        if frame in self.seen_frame:
+            first = self.seen_frame[frame]
+            raise InputError(f"{where}: frame '{frame}' is listed twice (first on line {first})")
+        zi = _number(row.z, where, "z")
+        if zi in self.seen_z:
+            raise InputError(f"{where}: duplicate position z = {row.z.strip()} (as on line "
+                             f"{self.seen_z[zi]}); each frame needs its own position")
+        di = _number(row.depth, where, "depth", blank_ok=True) if self.has_depth else math.nan
+        if not di > 0 and not math.isnan(di):
+            raise InputError(f"{where}: depth {row.depth.strip()} is not a positive distance")
+        path = inside(self.mask_dir, frame, f"{where}, column frame")
+        if not path.is_file():
+            inner = sorted(self.mask_dir.glob(f"*/{frame}"))  # MASK_DIR one folder too high?
+            hint = f"; did you mean MASK_DIR {inner[0].parent}?" if inner else ""
+            raise InputError(f"{where}: frame '{frame}' not found in {self.mask_dir}{hint}")
+        st = path.stat()
+        same = self.seen_file.get((st.st_dev, st.st_ino))
+        if same:
+            raise InputError(f"{where}: frame '{frame}' is the same file as '{same[1]}' on line "
+                             f"{same[0]}; each frame is listed once")
+        self.seen_frame[frame], self.seen_z[zi] = line, line
+        self.seen_file[(st.st_dev, st.st_ino)] = (line, frame)
+        return path, zi, di
+
+
+def read_positions(
+    positions: Path, mask_dir: Path, skip_bad: bool
+) -> tuple[list[Path], np.ndarray, np.ndarray | None, list[Oddity]]:
+    """Mask files, z and depth (None without a depth column) of the listed frames, in CSV order,
+    and the frames skipped (skip_bad) as oddities; InputError for the first problem otherwise."""
+    table = _read_table(positions)
+    rows = _Rows(mask_dir, "depth" in table.columns)
+    skips = Skips(skip_bad)
+    files, z, depth = [], [], []
     for i, row in enumerate(table.itertuples(index=False)):
-        where = f"{positions} line {i + 2}"
         try:
-            frame = row.frame.strip()
-            named.add(os.path.normpath(frame))
-            if not frame:
-                raise InputError(f"{where}: frame is empty")
-            if frame in seen_frame:
-                first = seen_frame[frame]
-                raise InputError(f"{where}: frame '{frame}' is listed twice (first on line {first})")
-            zi = _number(row.z, where, "z")
-            if zi in seen_z:
-                raise InputError(f"{where}: duplicate position z = {row.z.strip()} (as on line "
-                                 f"{seen_z[zi]}); each frame needs its own position")
-            di = _number(row.depth, where, "depth", blank_ok=True) if has_depth else math.nan
-            if not di > 0 and not math.isnan(di):
-                raise InputError(f"{where}: depth {row.depth.strip()} is not a positive distance")
-            path = inside(mask_dir, frame, f"{where}, column frame")
-            if not path.is_file():
-                inner = sorted(mask_dir.glob(f"*/{frame}"))  # MASK_DIR one folder too high?
-                hint = f"; did you mean MASK_DIR {inner[0].parent}?" if inner else ""
-                raise InputError(f"{where}: frame '{frame}' not found in {mask_dir}{hint}")
-            st = path.stat()
-            same = seen_file.get((st.st_dev, st.st_ino))
-            if same:
-                raise InputError(f"{where}: frame '{frame}' is the same file as '{same[1]}' on line "
-                                 f"{same[0]}; each frame is listed once")
+            path, zi, di = rows.read(row, i + 2, f"{positions} line {i + 2}")
         except InputError as e:
-            if not skip_bad:
-                raise
-            skipped.append({"example": f"line {i + 2}", "kind": "skipped", "detail": str(e)})
+            skips.add(f"line {i + 2}", str(e))
             continue
-        seen_frame[frame], seen_z[zi] = i + 2, i + 2
-        seen_file[(st.st_dev, st.st_ino)] = (i + 2, frame)
         files.append(path)
         z.append(zi)
         depth.append(di)
     for p in sorted(mask_dir.iterdir()):
-        if is_mask_file(p) and p.name not in named:  # no resolve(): it raises on symlink loops
-            message = f"{p}: no row in {positions} (every mask needs its camera position)"
-            if not skip_bad:
-                raise InputError(message)
-            skipped.append({"example": p.name, "kind": "skipped", "detail": message})
-    return files, np.array(z, np.float64), np.array(depth, np.float64) if has_depth else None, skipped
+        if is_mask_file(p) and p.name not in rows.named:  # no resolve(): it raises on symlink loops
+            skips.add(p.name, f"{p}: no row in {positions} (every mask needs its camera position)")
+    return files, np.array(z, np.float64), np.array(depth, np.float64) if rows.has_depth else None, \
+        skips.oddities
 
 
 def make_plan(
     name: str, mask_dir: Path, files: list[Path], z: np.ndarray, depth: np.ndarray,
-    windows: list[int] | None, n_obs: int, threshold: int, skipped: list[dict[str, str]],
+    windows: list[int] | None, n_obs: int, threshold: int, skipped: list[Oddity],
 ) -> Plan:
     if len(files) < 2:
         raise InputError(f"{mask_dir}: {len(files)} usable frame(s), at least 2 are needed")
@@ -132,7 +152,7 @@ def make_plan(
             raise InputError(f"{mask_dir}: window of {too_long[0]} frames does not fit the recording's "
                              f"{n} frames")
         if n_obs > min(windows):
-            raise InputError(f"--n-obs {n_obs} is more than the shortest window ({min(windows)} frames)")
+            raise InputError(f"n_obs {n_obs} is more than the shortest window ({min(windows)} frames)")
         digits = max(2, len(str(n - 1)))
         spans = protocol_windows(n, windows, n_obs)
         ids = [f"{name}/w{w}-{s:0{digits}d}" for w, s, _ in spans]
@@ -149,6 +169,46 @@ def make_plan(
     )
 
 
+def _check_options(mask_dir: Path, threshold: int, n_obs: int, windows: list[int] | None,
+                   d1: float | None) -> None:
+    if not mask_dir.is_dir():
+        raise InputError(f"{mask_dir}: no such folder")
+    if not 0 <= threshold <= 255:
+        raise InputError(f"threshold {threshold} is outside 0..255")
+    if n_obs < 2:
+        raise InputError(f"n_obs {n_obs}: at least 2 observations are needed")
+    if windows is not None and (not windows or min(windows) < 2):
+        raise InputError("windows must be lengths of at least 2 frames, e.g. 10,15,20,25,30")
+    if d1 is not None and not (math.isfinite(d1) and d1 > 0):
+        raise InputError(f"d1 {d1} is not a positive distance")
+
+
+@dataclass
+class RecordingImporter(Importer):
+    """A recording's frames as read from its CSV, less those left out so far."""
+
+    name: str
+    mask_dir: Path
+    files: list[Path]
+    z: np.ndarray
+    depth: np.ndarray
+    windows: list[int] | None
+    n_obs: int
+    threshold: int
+    skipped: list[Oddity]
+    skip_bad: bool = False
+
+    def plan(self) -> Plan:
+        return make_plan(self.name, self.mask_dir, self.files, self.z, self.depth, self.windows, self.n_obs,
+                         self.threshold, self.skipped)
+
+    def drop(self, plan: Plan, failures: list[tuple[int, str]]) -> None:
+        bad = {str(plan.masks[row]) for row, _ in failures}
+        self.skipped = self.skipped + [Oddity(SKIPPED, plan.masks[row].name, m) for row, m in failures]
+        keep = [i for i, f in enumerate(self.files) if str(f) not in bad]
+        self.files, self.z, self.depth = [self.files[i] for i in keep], self.z[keep], self.depth[keep]
+
+
 def import_recording(
     mask_dir: str | Path,
     positions: str | Path,
@@ -163,52 +223,25 @@ def import_recording(
     overwrite: bool = False,
     skip_bad: bool = False,
     workers: int | None = None,
-    progress: Callable[[int, int], None] | None = None,
-) -> tuple[str, StoreAttrs]:
-    """Import the recording into a store at `out` (default `<mask_dir name>.zarr`); returns the
-    store path and attributes. With skip_bad, bad rows and files are left out and recorded as
-    oddities of kind "skipped"."""
+    progress: Progress | None = None,
+) -> ImportResult:
+    """Import the recording into a store at `out` (default `<mask_dir name>.zarr`). With skip_bad,
+    bad rows and files are left out and recorded as oddities of kind "skipped".
+    `progress(mask_dir, done, total)` follows the decoding."""
+    label = str(mask_dir)
     mask_dir, positions = Path(mask_dir), Path(positions)
-    if not mask_dir.is_dir():
-        raise InputError(f"{mask_dir}: no such folder")
-    if not 0 <= threshold <= 255:
-        raise InputError(f"threshold {threshold} is outside 0..255")
-    if n_obs < 2:
-        raise InputError(f"--n-obs {n_obs}: at least 2 observations are needed")
-    if windows is not None and (not windows or min(windows) < 2):
-        raise InputError("windows must be lengths of at least 2 frames, e.g. 10,15,20,25,30")
-    if d1 is not None and not (math.isfinite(d1) and d1 > 0):
-        raise InputError(f"d1 {d1} is not a positive distance")
+    _check_options(mask_dir, threshold, n_obs, windows, d1)
     if out is None:
         out = Path(mask_dir.resolve().name + (".h5" if fmt == "hdf5" else ".zarr"))
     out = Path(out)
     name = store_name(name, out, mask_dir.resolve().name, "recording")
     files, z, depth, skipped = read_positions(positions, mask_dir, skip_bad)
     if depth is not None and d1 is not None:
-        raise InputError(f"{positions}: has a depth column; give either per-frame depth or --d1, not both")
+        raise InputError(f"{positions}: has a depth column; give either per-frame depth or d1, not both")
     if depth is None:  # a known d1 means a static object: depth = d1 + z - smallest z
         with np.errstate(over="ignore"):  # an overflow to inf is refused with the format's rules
             depth = d1 + (z - z.min()) if d1 is not None and len(z) else np.full(len(z), math.nan)
+    source = RecordingImporter(name, mask_dir, files, z, depth, windows, n_obs, threshold, skipped, skip_bad)
     with Workers(workers) as pool:
-        while True:
-            plan = make_plan(name, mask_dir, files, z, depth, windows, n_obs, threshold, skipped)
-            done = 0
-
-            def step(k: int, total: int = len(plan.masks)) -> None:
-                nonlocal done
-                done += k
-                if progress is not None:
-                    progress(done, total)
-
-            try:
-                attrs = build_store(plan, out, fmt, pool, overwrite=overwrite, collect_all=skip_bad,
-                                    progress=step if progress else None)
-                return str(out), attrs
-            except BadFiles as e:
-                if not skip_bad:
-                    raise
-                bad = {str(plan.masks[row]) for row, _ in e.failures}
-                skipped = skipped + [{"example": plan.masks[row].name, "kind": "skipped", "detail": m}
-                                     for row, m in e.failures]
-                keep = [i for i, f in enumerate(files) if str(f) not in bad]
-                files, z, depth = [files[i] for i in keep], z[keep], depth[keep]
+        attrs = source.write(out, fmt, pool, label=label, overwrite=overwrite, progress=progress)
+    return ImportResult(str(out), name, attrs)

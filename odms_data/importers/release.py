@@ -16,9 +16,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Callable
 from dataclasses import dataclass
-from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -28,10 +26,12 @@ from ..errors import DigestMismatchError, InputError, OutputExistsError
 from ..paths import inside
 from ..store.format import StoreAttrs
 from ..store.manifests import check_against_manifest, load_manifest, split_names
-from .builder import BadFiles, build_store
+from ..store.oddity import SKIPPED, Oddity
+from .builder import Importer, Progress
 from .decoding import Workers
 from .mask_files import MaskFile
-from .plan import Plan
+from .plan import Plan, Skips
+from .result import ImportResult
 
 # (frames per mask chunk, frames per shard): robot one folder per chunk, normal/perturb one example.
 CHUNKING = {"robot": (30, 480), "driving": (32, 1024), "normal": (10, 2000), "perturb": (10, 2000)}
@@ -118,9 +118,7 @@ def _scan_folder(folder: Path, rel: str, split: str, domain: str) -> Folder:
     return Folder(rel, pngs, z, z.copy(), examples)
 
 
-def scan_split(
-    data_dir: Path, split: str, skip_bad: bool
-) -> tuple[list[Folder], list[dict[str, str]]]:
+def scan_split(data_dir: Path, split: str, skip_bad: bool) -> tuple[list[Folder], list[Oddity]]:
     """The folders of one official split, and (with skip_bad) the ones skipped as oddities."""
     domain, fold = split.split("-")
     root = data_dir / fold / domain
@@ -132,18 +130,16 @@ def scan_split(
     dirs = sorted((p for p in root.iterdir() if p.is_dir()), key=lambda p: _natural_key(p.name))
     if not dirs:
         raise InputError(f"{root}: holds no example folders")
-    folders, skipped = [], []
+    folders, skips = [], Skips(skip_bad)
     for d in dirs:
         try:
             folders.append(_scan_folder(d, f"{fold}/{domain}/{d.name}", split, domain))
         except InputError as e:
-            if not skip_bad:
-                raise
-            skipped.append({"example": f"{split}/{d.name}", "kind": "skipped", "detail": str(e)})
-    return folders, skipped
+            skips.add(f"{split}/{d.name}", str(e))
+    return folders, skips.oddities
 
 
-def make_plan(split: str, folders: list[Folder], skipped: list[dict[str, str]]) -> Plan:
+def make_plan(split: str, folders: list[Folder], skipped: list[Oddity]) -> Plan:
     domain = split.split("-")[0]
     masks: list[MaskFile] = []
     z, depth, rows = [], [], []
@@ -181,6 +177,45 @@ def _folder_of(folders: list[Folder], row: int) -> int:
     return int(np.searchsorted(ends, row, side="right"))
 
 
+@dataclass
+class SplitImporter(Importer):
+    """One official split's folders as scanned, less those left out so far."""
+
+    name: str
+    folders: list[Folder]
+    skipped: list[Oddity]
+    path: Path
+    verify: bool
+    skip_bad: bool = False
+
+    def plan(self) -> Plan:
+        return make_plan(self.name, self.folders, self.skipped)
+
+    def drop(self, plan: Plan, failures: list[tuple[int, str]]) -> None:
+        bad: dict[int, str] = {}
+        for row, message in failures:
+            bad.setdefault(_folder_of(self.folders, row), message)
+        self.skipped = self.skipped + [
+            Oddity(SKIPPED, f"{self.name}/{Path(self.folders[i].rel).name}", m) for i, m in bad.items()
+        ]
+        self.folders = [f for i, f in enumerate(self.folders) if i not in bad]
+
+    def check(self, attrs: StoreAttrs) -> None:
+        _verify(attrs, self.name, self.path, strict=self.verify and not self.skipped)
+
+
+def _check_request(data_dir: Path, out_dir: Path, names: list[str], fmt: str) -> None:
+    if not data_dir.is_dir():
+        raise InputError(f"{data_dir}: no such folder (give the release's data/ folder)")
+    if out_dir.exists() and not out_dir.is_dir():
+        raise OutputExistsError(f"{out_dir}: is a file; give a folder for the stores")
+    unknown = [n for n in names if n not in OFFICIAL_SPLITS]
+    if unknown:
+        raise InputError(f"unknown official split '{unknown[0]}'; known: {', '.join(OFFICIAL_SPLITS)}")
+    if fmt not in ("zarr", "hdf5"):
+        raise InputError(f"unknown store format '{fmt}'; use zarr or hdf5")
+
+
 def import_release(
     data_dir: str | Path,
     out_dir: str | Path,
@@ -188,11 +223,11 @@ def import_release(
     splits: list[str] | None = None,
     fmt: str = "zarr",
     overwrite: bool = False,
-    progress: Callable[[str, int, int], None] | None = None,
+    progress: Progress | None = None,
     skip_bad: bool = False,
     verify: bool = True,
     workers: int | None = None,
-) -> dict[str, StoreAttrs]:
+) -> list[ImportResult]:
     """Import the release at `data_dir` into `<out_dir>/<split>.zarr` (or .h5) for each split.
 
     Every folder of every requested split is scanned before anything is written. With
@@ -203,51 +238,17 @@ def import_release(
     written. `progress(split, frames_done, frames_total)` follows the decoding.
     """
     data_dir, out_dir = Path(data_dir), Path(out_dir)
-    if not data_dir.is_dir():
-        raise InputError(f"{data_dir}: no such folder (give the release's data/ folder)")
-    if out_dir.exists() and not out_dir.is_dir():
-        raise OutputExistsError(f"{out_dir}: is a file; give a folder for the stores")
     names = list(splits or OFFICIAL_SPLITS)
-    unknown = [n for n in names if n not in OFFICIAL_SPLITS]
-    if unknown:
-        raise InputError(f"unknown official split '{unknown[0]}'; known: {', '.join(OFFICIAL_SPLITS)}")
-    if fmt not in ("zarr", "hdf5"):
-        raise InputError(f"unknown store format '{fmt}'; use zarr or hdf5")
+    _check_request(data_dir, out_dir, names, fmt)
     scans = {name: scan_split(data_dir, name, skip_bad) for name in names}
     suffix = ".zarr" if fmt == "zarr" else ".h5"
-    out: dict[str, StoreAttrs] = {}
+    out: list[ImportResult] = []
     with Workers(workers) as pool:
         for name in names:
-            folders, skipped = scans[name]
             path = out_dir / f"{name}{suffix}"
-            while True:
-                plan = make_plan(name, folders, skipped)
-                total, done = len(plan.masks), 0
-
-                def step(k: int, name: str = name, total: int = total) -> None:
-                    nonlocal done
-                    done += k
-                    if progress is not None:
-                        progress(name, done, total)
-
-                try:
-                    out[name] = build_store(
-                        plan, path, fmt, pool, overwrite=overwrite, collect_all=skip_bad,
-                        progress=step if progress else None,
-                        check=partial(_verify, name=name, path=path, strict=verify and not skipped),
-                    )
-                    break
-                except BadFiles as e:
-                    if not skip_bad:
-                        raise
-                    bad: dict[int, str] = {}
-                    for row, message in e.failures:
-                        bad.setdefault(_folder_of(folders, row), message)
-                    skipped = skipped + [
-                        {"example": f"{name}/{Path(folders[i].rel).name}", "kind": "skipped", "detail": m}
-                        for i, m in bad.items()
-                    ]
-                    folders = [f for i, f in enumerate(folders) if i not in bad]
+            source = SplitImporter(name, *scans[name], path, verify, skip_bad)
+            attrs = source.write(path, fmt, pool, label=name, overwrite=overwrite, progress=progress)
+            out.append(ImportResult(str(path), name, attrs))
     return out
 
 

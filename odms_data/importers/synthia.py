@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from itertools import pairwise
 from pathlib import Path
 
@@ -25,11 +25,12 @@ import numpy as np
 
 from ..errors import InputError
 from ..paths import inside
-from ..store.format import StoreAttrs
-from .builder import build_store
+from ..store.oddity import Oddity
+from .builder import Importer, Progress
 from .decoding import Workers
 from .mask_files import image_size, read_png
-from .plan import MaskSource, Plan, store_name
+from .plan import MaskSource, Plan, Skips, store_name
+from .result import ImportResult, SequenceCounts, SynthiaSummary
 from .synthia_protocol import CAMERAS, CLASS_NAMES, PAPER_SELECTION, SYNTHIA_POSES, PoseConvention, Selection
 
 cv2.setNumThreads(1)
@@ -70,7 +71,7 @@ def _numbered(folder: Path, suffix: str) -> dict[int, Path]:
             if p.suffix.lower() == suffix and re.fullmatch(r"[0-9]+", p.stem)}
 
 
-def find_sequence(seq_dir: Path, camera: str, skip_bad: bool) -> tuple[SequenceFiles, list[dict[str, str]]]:
+def find_sequence(seq_dir: Path, camera: str, skip_bad: bool) -> tuple[SequenceFiles, list[Oddity]]:
     """The camera's frames in a sequence folder. A frame missing from one of the folders (RGB
     included, when present) is an error, or with skip_bad left out and returned as an oddity."""
     if not seq_dir.is_dir():
@@ -87,18 +88,16 @@ def find_sequence(seq_dir: Path, camera: str, skip_bad: bool) -> tuple[SequenceF
     if not found["GT/LABELS"]:
         raise InputError(f"{folders['GT/LABELS']}: holds no numbered label images (000000.png, ...)")
     common = set.intersection(*(set(f) for f in found.values()))
-    skipped = []
+    skips = Skips(skip_bad)
     for frame in sorted(set.union(*(set(f) for f in found.values())) - common):
         have = next(k for k in found if frame in found[k])
         lack = next(k for k in found if frame not in found[k])
         counts = ", ".join(f"{k} {len(v)}" for k, v in found.items())
         name = found[have][frame].with_suffix(".txt" if lack == "CameraParams" else ".png").name
-        message = f"{folders[lack] / name}: missing, but {have} has frame {frame} (frames: {counts})"
-        if not skip_bad:
-            raise InputError(message)
-        skipped.append({"example": f"{seq_dir.name} frame {frame}", "kind": "skipped", "detail": message})
+        skips.add(f"{seq_dir.name} frame {frame}",
+                  f"{folders[lack] / name}: missing, but {have} has frame {frame} (frames: {counts})")
     files = [{f: found[k][f] for f in sorted(common)} for k in REQUIRED]
-    return SequenceFiles(seq_dir.name, seq_dir, files[0], files[1], files[2]), skipped
+    return SequenceFiles(seq_dir.name, seq_dir, files[0], files[1], files[2]), skips.oddities
 
 
 def read_pose(path: Path, convention: PoseConvention) -> Pose:
@@ -270,7 +269,63 @@ class Scanned:
     poses: dict[str, dict[int, Pose]]
     scans: dict[str, dict[int, FrameScan]]
     size: tuple[int, int]
-    oddities: list[dict[str, str]]  # frames and sequences skipped as bad
+    oddities: list[Oddity]  # frames and sequences skipped as bad
+
+
+def _find_sequences(seq_dirs: Sequence[str | Path], camera: str, skips: Skips) -> list[SequenceFiles]:
+    """Every sequence's frames, those that are bad left out (skips)."""
+    sequences: list[SequenceFiles] = []
+    for d in map(Path, seq_dirs):
+        try:
+            seq, skipped = find_sequence(d, camera, skips.skip_bad)
+        except InputError as e:
+            skips.add(d.name, str(e))
+            continue
+        if any(s.name == seq.name for s in sequences):
+            raise InputError(f"{d}: a second sequence named {seq.name} (their example ids would collide)")
+        sequences.append(seq)
+        skips.oddities += skipped
+    return sequences
+
+
+def _read_poses(
+    sequences: list[SequenceFiles], convention: PoseConvention, skips: Skips
+) -> dict[str, dict[int, Pose]]:
+    """Every frame's camera pose; a frame whose parameters are bad is dropped (skips)."""
+    poses: dict[str, dict[int, Pose]] = {}
+    for seq in sequences:
+        poses[seq.name] = {}
+        for f in seq.frames:
+            try:
+                poses[seq.name][f] = read_pose(seq.params[f], convention)
+            except InputError as e:
+                seq.drop(f)
+                skips.add(f"{seq.name} frame {f}", str(e))
+    return poses
+
+
+def _scan_frames(
+    seq: SequenceFiles, pool: Workers, classes: tuple[int, ...], size: tuple[int, int] | None, skips: Skips,
+    progress: Callable[[str, int, int], None] | None,
+) -> tuple[dict[int, FrameScan], tuple[int, int] | None]:
+    """The scans of a sequence's frames, and the image size (the first readable frame's); a frame
+    that cannot be read or has another size is dropped (skips)."""
+    tasks = [(f, str(seq.labels[f]), str(seq.depth[f]), classes, size) for f in seq.frames]
+    scans: dict[int, FrameScan] = {}
+    with pool.map(scan_frame, tasks) as results:
+        for k, scan in enumerate(results, 1):
+            if scan.failure is None and size is not None and scan.size != size:
+                scan.failure = (f"{seq.labels[scan.frame]}: {scan.size[0]}x{scan.size[1]} pixels, "
+                                f"but the first label image has {size[0]}x{size[1]}")
+            if scan.failure is not None:
+                seq.drop(scan.frame)
+                skips.add(f"{seq.name} frame {scan.frame}", scan.failure)
+            else:
+                size = size or scan.size
+                scans[scan.frame] = scan
+            if progress:
+                progress(seq.name, k, len(tasks))
+    return scans, size
 
 
 def scan_sequences(
@@ -285,55 +340,17 @@ def scan_sequences(
 ) -> Scanned:
     """Read the camera parameters and scan the label and depth images of every sequence."""
     if camera not in CAMERAS:
-        raise InputError(f"--camera {camera}: not a SYNTHIA camera; one of {', '.join(CAMERAS)}")
-    sequences: list[SequenceFiles] = []
-    oddities: list[dict[str, str]] = []
-
-    def skip(what: str, message: str) -> None:
-        if not skip_bad:
-            raise InputError(message)
-        oddities.append({"example": what, "kind": "skipped", "detail": message})
-
-    for d in map(Path, seq_dirs):
-        try:
-            seq, skipped = find_sequence(d, camera, skip_bad)
-        except InputError as e:
-            skip(d.name, str(e))
-            continue
-        if any(s.name == seq.name for s in sequences):
-            raise InputError(f"{d}: a second sequence named {seq.name} (their example ids would collide)")
-        sequences.append(seq)
-        oddities += skipped
-    poses: dict[str, dict[int, Pose]] = {}
-    for seq in sequences:
-        poses[seq.name] = {}
-        for f in seq.frames:
-            try:
-                poses[seq.name][f] = read_pose(seq.params[f], convention)
-            except InputError as e:
-                seq.drop(f)
-                skip(f"{seq.name} frame {f}", str(e))
+        raise InputError(f"camera {camera}: not a SYNTHIA camera; one of {', '.join(CAMERAS)}")
+    skips = Skips(skip_bad)
+    sequences = _find_sequences(seq_dirs, camera, skips)
+    poses = _read_poses(sequences, convention, skips)
     scans: dict[str, dict[int, FrameScan]] = {}
     size = _first_size(sequences)
     for seq in sequences:
-        tasks = [(f, str(seq.labels[f]), str(seq.depth[f]), classes, size) for f in seq.frames]
-        scans[seq.name] = {}
-        with pool.map(scan_frame, tasks) as results:
-            for k, scan in enumerate(results, 1):
-                if scan.failure is None and size is not None and scan.size != size:
-                    scan.failure = (f"{seq.labels[scan.frame]}: {scan.size[0]}x{scan.size[1]} pixels, "
-                                    f"but the first label image has {size[0]}x{size[1]}")
-                if scan.failure is not None:
-                    seq.drop(scan.frame)
-                    skip(f"{seq.name} frame {scan.frame}", scan.failure)
-                else:
-                    size = size or scan.size
-                    scans[seq.name][scan.frame] = scan
-                if progress:
-                    progress(seq.name, k, len(tasks))
+        scans[seq.name], size = _scan_frames(seq, pool, classes, size, skips, progress)
     if size is None:
         raise InputError(f"no readable frame in {', '.join(map(str, seq_dirs))}")
-    return Scanned(camera, sequences, poses, scans, size, oddities)
+    return Scanned(camera, sequences, poses, scans, size, skips.oddities)
 
 
 def _first_size(sequences: list[SequenceFiles]) -> tuple[int, int] | None:
@@ -471,6 +488,17 @@ def plan_store(scanned: Scanned, sel: Selection, split: str) -> tuple[Plan, dict
 # --- the import ----------------------------------------------------------------------------
 
 
+@dataclass
+class SynthiaImporter(Importer):
+    """The store planned from the scanned sequences; bad frames were left out while scanning, so
+    none is dropped while writing."""
+
+    planned: Plan
+
+    def plan(self) -> Plan:
+        return self.planned
+
+
 def import_synthia(
     seq_dirs: Sequence[str | Path],
     out: str | Path,
@@ -484,14 +512,14 @@ def import_synthia(
     overwrite: bool = False,
     skip_bad: bool = False,
     workers: int | None = None,
-    progress: Callable[[str, int, int], None] | None = None,
-) -> tuple[str, StoreAttrs, dict]:
+    progress: Progress | None = None,
+) -> ImportResult:
     """Import SYNTHIA-SEQS sequence folders into one driving store at `out`.
 
-    Everything is read and checked before anything is written. Returns the store path, its
-    attributes and a summary (per sequence: frames, tracks and examples of each class). With
-    `classes_given`, a selected class that no sequence shows is an error. With skip_bad, bad
-    frames and sequences are left out and recorded as oddities of kind "skipped".
+    Everything is read and checked before anything is written. The result's summary holds, per
+    sequence, its frames, tracks and examples of each class. With `classes_given`, a selected
+    class that no sequence shows is an error. With skip_bad, bad frames and sequences are left
+    out and recorded as oddities of kind "skipped".
     `progress(label, done, total)` follows the scanning of each sequence, then the writing.
     """
     selection.check()
@@ -505,23 +533,14 @@ def import_synthia(
         plan, counts = plan_store(scanned, selection, split)
         if not plan.ids:
             names = ", ".join(s.name for s in scanned.sequences)
-            raise InputError(f"no window of {names} passes the selection rules (see --frames, --move, "
-                             "--d1-range, --min-area in schemas/SYNTHIA.md; when the camera moves "
-                             "towards the objects, --forward may have the wrong sign)")
-        done = 0
-
-        def step(k: int) -> None:
-            nonlocal done
-            done += k
-            if progress:
-                progress(f"{out.name} (writing)", done, len(plan.masks))
-
-        attrs = build_store(plan, out, fmt, pool, overwrite=overwrite, progress=step)
-    summary = {
-        "store": str(out), "split": split, "camera": camera, "examples": attrs.counts["examples"],
-        "frames": attrs.counts["frames"], "digest": attrs.digest,
-        "skipped": [o["detail"] for o in attrs.oddities if o["kind"] == "skipped"],
-        "oddities": len(attrs.oddities),
-        "sequences": [{"name": s.name, **counts[s.name]} for s in scanned.sequences],
-    }
-    return str(out), attrs, summary
+            raise InputError(f"no window of {names} passes the selection rules", fix="synthia-selection")
+        attrs = SynthiaImporter(plan).write(out, fmt, pool, label=f"{out.name} (writing)",
+                                            overwrite=overwrite, progress=progress)
+    result = ImportResult(str(out), split, attrs)
+    summary = SynthiaSummary(
+        store=str(out), split=split, camera=camera, examples=attrs.counts["examples"],
+        frames=attrs.counts["frames"], digest=attrs.digest, skipped=tuple(result.skipped),
+        oddities=len(attrs.oddities),
+        sequences=tuple(SequenceCounts(s.name, **counts[s.name]) for s in scanned.sequences),
+    )
+    return replace(result, summary=summary)

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import torch
@@ -23,6 +22,7 @@ from ..loaders.torch_loader import StoreDataset
 from ..outputs import check_replaceable
 from ..store.reader import open_store
 from . import odn
+from .checkpoint import Checkpoint
 from .odn import ODN
 from .run_folder import BEST, LAST, RunFolder, TrainConfig
 from .variants import Variant, variant
@@ -38,13 +38,13 @@ def pick_device(name: str | None) -> torch.device:
     try:
         device = torch.device(name)
     except RuntimeError:
-        raise InputError(f"--device '{name}' is not a device name (cpu, cuda, cuda:1, ...)") from None
+        raise InputError(f"device '{name}' is not a device name (cpu, cuda, cuda:1, ...)") from None
     if device.type not in ("cpu", "cuda"):  # meta, xla, ...: no place to train or predict on
-        raise InputError(f"--device {name}: not a device odms-data computes on; use cpu, cuda or cuda:N")
+        raise InputError(f"device {name}: not a device odms-data computes on; use cpu, cuda or cuda:N")
     if device.type == "cuda" and not torch.cuda.is_available():
-        raise InputError(f"--device {name}: PyTorch sees no CUDA device on this machine")
+        raise InputError(f"device {name}: PyTorch sees no CUDA device on this machine")
     if device.type == "cuda" and (device.index or 0) >= torch.cuda.device_count():
-        raise InputError(f"--device {name}: this machine has {torch.cuda.device_count()} CUDA device(s)")
+        raise InputError(f"device {name}: this machine has {torch.cuda.device_count()} CUDA device(s)")
     return device
 
 
@@ -65,13 +65,14 @@ def store_batches(path: str, config: TrainConfig, workers: int, pin: bool) -> It
     return DataLoader(dataset, batch_size=EVAL_BATCH, num_workers=workers, pin_memory=pin)
 
 
-def read_checkpoint(path: Path) -> dict[str, Any]:
-    """A checkpoint's content, on the CPU (the random states must be there; load_state_dict moves
-    weights and Adam's state to their module's device)."""
+def read_checkpoint(path: Path) -> Checkpoint:
+    """A checkpoint, on the CPU (the random states must be there; load_state_dict moves weights
+    and Adam's state to their module's device)."""
     try:
-        return torch.load(path, map_location="cpu", weights_only=True)
+        saved = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as e:  # a truncated or foreign file: torch raises many kinds
         raise InputError(f"{path}: not a readable checkpoint ({type(e).__name__}: {e})") from None
+    return Checkpoint.from_json(saved, str(path))
 
 
 def load_trained(folder: RunFolder, which: str, device: torch.device) -> tuple[ODN, TrainConfig, int]:
@@ -85,33 +86,37 @@ def load_trained(folder: RunFolder, which: str, device: torch.device) -> tuple[O
     saved = read_checkpoint(path)
     model = odn.build(variant(config.model), config.n_obs, config.radial).to(device)
     try:
-        model.load_state_dict(saved["model"])
+        model.load_state_dict(saved.model)
     except (KeyError, RuntimeError):
         raise InputError(f"{path}: its weights do not fit the run's network ({config.model}, "
                          f"n_obs {config.n_obs}, radial {config.radial}); was config.json edited?") from None
-    return model.eval(), config, int(saved["iteration"])
+    return model.eval(), config, saved.iteration
 
 
 @torch.inference_mode()
 def predict_store(
     model: torch.nn.Module, config: TrainConfig, path: str, device: torch.device, workers: int,
-    progress: Callable[[int], None] = lambda n: None,
+    progress: Callable[[str, int, int], None] = lambda split, done, total: None,
 ) -> tuple[str, list[str], np.ndarray]:
-    """(split, example ids, predicted d1) of every example of the store at `path`."""
+    """(split, example ids, predicted d1) of every example of the store at `path`;
+    `progress(split, examples done, examples)` after each batch."""
     with open_store(path) as s:
         split, ids, n = s.attrs.split, s.example_ids, len(s)
     v = variant(config.model)
     d1 = np.empty(n)
+    done = 0
     for batch in store_batches(path, config, workers, device.type == "cuda"):
         _, d = outputs_and_depths(model, v, to_device(batch, device))
         d1[batch["index"].numpy()] = d.cpu().numpy()
-        progress(len(batch["index"]))
+        done += len(batch["index"])
+        progress(split, done, n)
     return split, ids, d1
 
 
 def predict(
     folder: RunFolder, stores: dict[str, Path], output: str | Path, *, which: str = "best", workers: int = 0,
-    device: str | None = None, overwrite: bool = False, progress: Callable[[int], None] = lambda n: None,
+    device: str | None = None, overwrite: bool = False,
+    progress: Callable[[str, int, int], None] = lambda split, done, total: None,
 ) -> tuple[int, TrainConfig, int]:
     """Write the predictions file (schemas/PREDICTIONS.md) of the run's `which` checkpoint for every
     example of `stores` ({split: path}); returns (rows, the run's config, the checkpoint's iteration)."""

@@ -142,8 +142,8 @@ class RunFolder:
         if self.is_run() and not overwrite:
             diff = config.differences(self.config())
             if diff:
-                raise InputError(f"{self.path}: holds a run of another configuration ({'; '.join(diff)}); "
-                                 "give another folder, or --overwrite to start this one again")
+                raise InputError(f"{self.path}: holds a run of another configuration ({'; '.join(diff)})",
+                                 fix="overwrite-run")
             return self.file(LAST).is_file()
         if not self.is_run() and self.path.is_dir() and any(self.path.iterdir()):
             raise InputError(f"{self.path}: is not empty and holds no training run; "

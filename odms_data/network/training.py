@@ -28,6 +28,7 @@ from ..outputs import output_lock, replaced_via_partial
 from ..simulate.params import PRESETS, GeneratorParams
 from ..store.reader import open_store
 from . import odn
+from .checkpoint import Checkpoint
 from .odn import ODN
 from .prediction import Batch, outputs_and_depths, pick_device, read_checkpoint, store_batches, to_device
 from .run_folder import BEST, LAST, RUN_KIND, TRAIN, VAL, AddRow, RunFolder, TrainConfig
@@ -104,11 +105,11 @@ class Validation:
         return out
 
 
-def _save(path: Path, content: dict) -> None:
+def _save(path: Path, checkpoint: Checkpoint) -> None:
     """Write a checkpoint: serialised in memory first, so that a full disk is an OSError (which
     outputs.py makes one line) and not torch's RuntimeError."""
     buffer = io.BytesIO()
-    torch.save(content, buffer)
+    torch.save(checkpoint.to_json(), buffer)
     with replaced_via_partial(path) as partial, open(partial, "xb") as f:
         f.write(buffer.getbuffer())
 
@@ -132,10 +133,10 @@ def _train(path: str | Path, config: TrainConfig, workers: int, device: str | No
            report: Callable[[Status], None]) -> Status:
     folder, v, dev = RunFolder(path), variant(config.model), pick_device(device)
     status = Status(0, config.iterations, config.batch_size, 0, 0.0, str(dev))
-    saved = read_checkpoint(folder.file(LAST)) if folder.check(config, overwrite) else {}
+    saved = read_checkpoint(folder.file(LAST)) if folder.check(config, overwrite) else None
     if saved:
-        status.iteration = status.started_at = status.checkpoint = int(saved["iteration"])
-        status.best, status.best_iteration = saved["best"], saved["best_iteration"]
+        status.iteration = status.started_at = status.checkpoint = saved.iteration
+        status.best, status.best_iteration = saved.best, saved.best_iteration
     if status.iteration >= config.iterations:
         return status
     validation = Validation(config, dev, workers)  # reads the stores: their problems show before any write
@@ -145,12 +146,12 @@ def _train(path: str | Path, config: TrainConfig, workers: int, device: str | No
     optimizer = torch.optim.Adam(model.parameters(), lr=config.lr)
     spent = 0.0  # training seconds up to the checkpoint resumed from
     if saved:
-        model.load_state_dict(saved["model"])
-        optimizer.load_state_dict(saved["optimizer"])
-        torch.set_rng_state(saved["rng"])
-        if dev.type == "cuda" and "cuda_rng" in saved:
-            torch.cuda.set_rng_state(saved["cuda_rng"], dev)
-        spent = float(saved["seconds"])
+        adam, rng, spent = saved.resume_state(str(folder.file(LAST)))
+        model.load_state_dict(saved.model)
+        optimizer.load_state_dict(adam)
+        torch.set_rng_state(rng)
+        if dev.type == "cuda" and saved.cuda_rng is not None:
+            torch.cuda.set_rng_state(saved.cuda_rng, dev)
     stream = StreamDataset(config.batch_size, config.iterations, params=stream_params(config),
                            seed=config.seed, transform=odn.transform(config.n_obs, config.radial),
                            start=status.iteration)
@@ -190,12 +191,10 @@ def _validate(folder: RunFolder, model: ODN, optimizer: torch.optim.Optimizer, v
     add(status.iteration, seconds, VAL, float(np.mean([loss for loss, _ in results.values()])), status.val)
     if status.best is None or status.val < status.best:
         status.best, status.best_iteration = status.val, status.iteration
-        _save(folder.file(BEST), {"iteration": status.iteration, "model": model.state_dict(),
-                                  "percent_error": status.val})
-    _save(folder.file(LAST), {
-        "iteration": status.iteration, "seconds": seconds, "model": model.state_dict(),
-        "optimizer": optimizer.state_dict(), "rng": torch.get_rng_state(),
-        **({"cuda_rng": torch.cuda.get_rng_state(dev)} if dev.type == "cuda" else {}),
-        "best": status.best, "best_iteration": status.best_iteration,
-    })
+        _save(folder.file(BEST), Checkpoint(status.iteration, model.state_dict(), percent_error=status.val))
+    _save(folder.file(LAST), Checkpoint(
+        status.iteration, model.state_dict(), seconds=seconds, optimizer=optimizer.state_dict(),
+        rng=torch.get_rng_state(), cuda_rng=torch.cuda.get_rng_state(dev) if dev.type == "cuda" else None,
+        best=status.best, best_iteration=status.best_iteration,
+    ))
     status.checkpoint = status.iteration

@@ -45,7 +45,7 @@ def connect(address: str):
     try:
         from distributed import Client
     except ImportError:
-        raise InputError("--scheduler needs Dask: pip install 'odms-data[dask]'") from None
+        raise InputError("a Dask scheduler needs Dask: pip install 'odms-data[dask]'") from None
     try:
         client = Client(address, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
     except (OSError, TimeoutError, ValueError) as e:

@@ -12,6 +12,8 @@ import os
 from collections.abc import Callable, Generator, Iterable, Iterator
 from concurrent.futures import Future
 from contextlib import closing
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -19,6 +21,7 @@ from ..errors import InputError
 from ..parallel import cores, ordered_map, worker_pool, workers_for
 from ..store.digest import StoreDigest
 from ..store.format import StoreAttrs
+from ..store.manifests import SplitManifest, load_manifest
 from ..store.masks import packed_width
 from ..store.writer import Layout, StoreWriter
 from .params import DEFAULT_EXAMPLES_PER_SHARD, GENERATOR_VERSION, MAX_FRAMES, GeneratorParams
@@ -27,6 +30,27 @@ from .shard_task import SOURCE, ShardResult, ShardTask, example_ids, run
 Progress = Callable[[int], None]
 SHARD_BYTES = 2**28  # the most packed mask bytes one shard task holds
 EXAMPLE_S, MEGAPIXEL_S = 1e-4, 1.9e-4  # generation's CPU-seconds per example and per megapixel of frames
+
+
+@dataclass(frozen=True)
+class SplitRecipe:
+    """What generates a named split of splits/, from its manifest: count, preset, seed and the
+    parameters that differ from the preset's."""
+
+    manifest: SplitManifest
+    count: int
+    preset: str
+    seed: int
+    overrides: dict[str, Any]
+
+
+def split_recipe(name: str) -> SplitRecipe:
+    """The recipe of generated split `name`; InputError for an unknown or imported split."""
+    manifest = load_manifest(name)
+    if manifest.kind != "generated":
+        raise InputError(f"split '{name}' is imported, not generated", fix="import")
+    gen = manifest.generator or {}
+    return SplitRecipe(manifest, manifest.count, gen["preset"], gen["seed"], dict(gen.get("params", {})))
 
 
 def work_seconds(count: int, params: GeneratorParams) -> float:

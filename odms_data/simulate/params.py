@@ -127,3 +127,9 @@ def preset(name: str, **overrides: Any) -> GeneratorParams:
     if name not in PRESETS:
         raise InputError(f"unknown preset '{name}'; choose from {', '.join(PRESETS)}")
     return replace(PRESETS[name], **overrides)
+
+
+def merged_params(name: str, overrides: dict[str, Any]) -> GeneratorParams:
+    """Preset `name`'s parameters with `overrides` (names and JSON values: a manifest's or the
+    user's) merged in, checked."""
+    return GeneratorParams.from_json({**preset(name).to_json(), **overrides})

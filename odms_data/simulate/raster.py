@@ -58,6 +58,15 @@ def _mark(img, poly, s, e, cx, cy, left, right):
 @kernel
 def _fill(img, cx, cy, left, right, stack):
     """Fill what the marked contour encloses (module docstring); stack: room for every pixel."""
+    n = _seed_outside(img, cx, cy, left, right, stack)
+    _flood_outside(img, cx, cy, left, right, stack, n)
+    _settle(img, cx, cy, left, right)
+
+
+@kernel
+def _seed_outside(img, cx, cy, left, right, stack):
+    """Mark OUTSIDE the empty pixels of each span that a neighbouring span does not cover, and
+    stack them; returns how many."""
     h, n = len(left), 0
     for y in range(h):
         row, a, b = img[cy + y], left[y] + 1, right[y]  # the span's inside: a .. b - 1
@@ -70,6 +79,13 @@ def _fill(img, cx, cy, left, right, stack):
                     row[cx + x] = OUTSIDE
                     stack[n, 0], stack[n, 1] = y, x
                     n += 1
+    return n
+
+
+@kernel
+def _flood_outside(img, cx, cy, left, right, stack, n):
+    """Mark OUTSIDE every empty pixel inside the spans that the n stacked ones reach."""
+    h = len(left)
     while n > 0:
         n -= 1
         y0, x0 = stack[n, 0], stack[n, 1]
@@ -79,7 +95,12 @@ def _fill(img, cx, cy, left, right, stack):
                 img[cy + y, cx + x] = OUTSIDE
                 stack[n, 0], stack[n, 1] = y, x
                 n += 1
-    for y in range(h):
+
+
+@kernel
+def _settle(img, cx, cy, left, right):
+    """Inside the spans: 1 for what is not OUTSIDE, 0 for what is."""
+    for y in range(len(left)):
         row = img[cy + y, cx + left[y] + 1 : cx + max(right[y], left[y] + 1)]
         for x in range(len(row)):
             row[x] = row[x] != OUTSIDE

@@ -110,26 +110,45 @@ def shrink_canvases(canvases, tops, lo, hi, out, rounded, ydest, yweight, xdest,
         for sy in range(cy0, cy1):
             row = canvases[tops[f] + sy - y0, cx0 - x0 : cx1 - x0]
             buf[dx0:dx1] = 0
-            drawn = False
-            for i in range(len(row)):
-                if row[i]:  # cv2 adds pixel * weight; a zero pixel adds nothing
-                    drawn = True
-                    for j in range(2):
-                        if xdest[cx0 + i, j] >= 0:
-                            buf[xdest[cx0 + i, j]] += xweight[cx0 + i, j]
-            if drawn:
-                for j in range(2):
-                    dy, beta = ydest[sy, j], yweight[sy, j]
-                    if dy >= 0:
-                        for dx in range(dx0, dx1):
-                            acc[dy, dx] += beta * buf[dx]
-        for dy in range(dy0, dy1):
+            if _shrink_row(row, cx0, buf, xdest, xweight):
+                _spread_row(acc, buf, ydest[sy], yweight[sy], dx0, dx1)
+        _store(acc, out[f], dy0, dy1, dx0, dx1, factor, rounded)
+
+
+@kernel
+def _shrink_row(row, cx0, buf, xdest, xweight):
+    """Add the source row's pixels (columns cx0 ..) into `buf` by their destination columns;
+    whether any was drawn."""
+    drawn = False
+    for i in range(len(row)):
+        if row[i]:  # cv2 adds pixel * weight; a zero pixel adds nothing
+            drawn = True
+            for j in range(2):
+                if xdest[cx0 + i, j] >= 0:
+                    buf[xdest[cx0 + i, j]] += xweight[cx0 + i, j]
+    return drawn
+
+
+@kernel
+def _spread_row(acc, buf, ydest, yweight, dx0, dx1):
+    """Add the shrunk row `buf` into its (up to two) destination rows with their weights."""
+    for j in range(2):
+        dy, beta = ydest[j], yweight[j]
+        if dy >= 0:
             for dx in range(dx0, dx1):
-                v = acc[dy, dx] * factor
-                if rounded:
-                    out[f, dy, dx] = np.rint(v)
-                else:
-                    out[f, dy, dx] = v
+                acc[dy, dx] += beta * buf[dx]
+
+
+@kernel
+def _store(acc, out, dy0, dy1, dx0, dx1, factor, rounded):
+    """out (one frame) = the accumulated coverage times `factor`, rounded to uint8 with `rounded`."""
+    for dy in range(dy0, dy1):
+        for dx in range(dx0, dx1):
+            v = acc[dy, dx] * factor
+            if rounded:
+                out[dy, dx] = np.rint(v)
+            else:
+                out[dy, dx] = v
 
 
 @kernel

@@ -15,6 +15,7 @@ from .._version import __version__
 from ..errors import StoreError
 from ..resources import resource_dir
 from .masks import packed_width
+from .oddity import Oddity
 
 FORMAT_VERSION = 1
 ATTRS_KEY = "odms"
@@ -48,7 +49,7 @@ class StoreAttrs:
     counts: dict[str, int]
     generator: dict[str, Any] | None = None
     source: str | None = None
-    oddities: list[dict[str, str]] = field(default_factory=list)
+    oddities: list[Oddity] = field(default_factory=list)
     digest: str = ""
     complete: bool = False
     format_version: int = FORMAT_VERSION
@@ -63,6 +64,7 @@ class StoreAttrs:
     def to_json(self) -> dict[str, Any]:
         d = asdict(self)
         d["image_size"] = list(self.image_size)
+        d["oddities"] = [o.to_json() for o in self.oddities]
         return d
 
     @classmethod
@@ -73,6 +75,7 @@ class StoreAttrs:
             raise StoreError(f"{where}: store attributes are invalid: {problems[0]}")
         d = dict(d)
         d["image_size"] = tuple(d["image_size"])
+        d["oddities"] = [Oddity.from_json(o) for o in d.get("oddities", [])]
         return cls(**d)
 
 

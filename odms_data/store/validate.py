@@ -117,7 +117,7 @@ def _check_content(store: Store, report: Report, progress: Callable[[int], None]
         P.append(f"d1 of example {name(i)} is {d1[i]}, but the depth at its first frame is {first[i]} "
                  f"({len(differ)} such example(s))")
     n_obs = (fi >= 0).sum(axis=1)
-    excused = {o["example"] for o in store.attrs.oddities if o["kind"] == Z_ODDITY}
+    excused = {o.subject for o in store.attrs.oddities if o.kind == Z_ODDITY}
     zz = np.where(fi >= 0, z[np.maximum(fi, 0)], np.inf)
     with np.errstate(invalid="ignore"):  # inf - inf in the padding of shorter examples
         steps = np.diff(zz, axis=1)
@@ -161,6 +161,11 @@ def _check_masks(store: Store, report: Report, progress: Callable[[int], None] |
     report.digest = digest
     if digest != store.attrs.digest:
         report.problems.append(f"content digest {digest} differs from the recorded {store.attrs.digest}")
+    _check_manifest(store, report, digest)
+
+
+def _check_manifest(store: Store, report: Report, digest: str) -> None:
+    """The recomputed digest against the manifest of the store's split, when it is an official one."""
     if store.attrs.split in split_names():
         try:
             manifest = load_manifest(store.attrs.split)

@@ -92,11 +92,11 @@ def _check_suffix(path: str, fmt: str) -> None:
         return
     suffix = Path(path).suffix.lower()
     if fmt == "zarr" and suffix in HDF5_SUFFIXES:
-        raise InputError(f"{path}: the name says HDF5 ({suffix}) but the format asked for is zarr; "
-                         "name it *.zarr or ask for --format hdf5")
+        raise InputError(f"{path}: the name says HDF5 ({suffix}) but the format asked for is zarr",
+                         fix="name-zarr")
     if fmt == "hdf5" and suffix == ".zarr":
-        raise InputError(f"{path}: the name says Zarr (.zarr) but the format asked for is hdf5; "
-                         "name it *.h5 or ask for --format zarr")
+        raise InputError(f"{path}: the name says Zarr (.zarr) but the format asked for is hdf5",
+                         fix="name-hdf5")
 
 
 class StoreWriter:

@@ -13,6 +13,7 @@ from click.testing import CliRunner
 from odms_data.cli import main
 from odms_data.errors import InputError
 from odms_data.evaluation.leaderboard import (
+    LeaderboardEntry,
     entry_from_report,
     entry_problems,
     family_all,
@@ -162,15 +163,15 @@ def test_entry_needs_a_name_and_a_complete_score(tmp_path, official_like):
 
 
 def test_shipped_entries_are_valid_and_match_the_published_all():
-    entries = {e["name"]: e for e in load_entries()}
+    entries = {e.name: e for e in load_entries()}
     assert len(entries) == 25
     assert family_all(entries["DBox"], "test") == 17.1
     assert family_all(entries["Box_LS"], "test") == 25.3
     assert family_all(entries["ODN_l"], "test") == pytest.approx((19.3 + 30.1 + 8.3 + 18.2) / 4)
-    assert entries["VOS-DE (paper)"]["results"]["test"]["driving"]["percent"] == 36.0
+    assert entries["VOS-DE (paper)"].results["test"]["driving"]["percent"] == 36.0
     computed = entries["VOS-DE"]
-    assert computed["figures"] == "computed" and computed["n_obs"] == 10
-    assert round(computed["results"]["test"]["driving"]["percent"], 2) == 35.76
+    assert computed.figures == "computed" and computed.n_obs == 10
+    assert round(computed.results["test"]["driving"]["percent"], 2) == 35.76
 
 
 def test_leaderboard_is_sorted_by_all_and_its_page_shows_it():
@@ -180,6 +181,13 @@ def test_leaderboard_is_sorted_by_all_and_its_page_shows_it():
     assert alls == sorted(alls) and rows[0].startswith("| 1 | [DBox]")
     page = (resource_dir("schemas").parent / "docs" / "LEADERBOARD.md").read_text()
     assert board in page, "docs/LEADERBOARD.md is stale: paste `odms-data leaderboard` into it"
+
+
+def test_an_entry_is_checked_when_made():
+    entry = load_entries()[0]
+    assert LeaderboardEntry.from_json(entry.to_json(), "again") == entry
+    with pytest.raises(InputError, match="entry 'x': not a valid leaderboard entry"):
+        LeaderboardEntry(name="x", method="x", figures="guessed", citation=None, link=None, results={})
 
 
 def test_leaderboard_rejects_an_invalid_entry(tmp_path):

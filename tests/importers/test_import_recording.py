@@ -48,7 +48,8 @@ def run_cli(*args: str):
 
 def test_single_example_round_trip(tmp_path):
     rec = write_recording(tmp_path)
-    path, attrs = import_recording(rec["masks"], rec["csv"], tmp_path / "cup.zarr", workers=1)
+    r = import_recording(rec["masks"], rec["csv"], tmp_path / "cup.zarr", workers=1)
+    path, attrs = r.path, r.attrs
     assert attrs.domain == "recording" and attrs.split == "cup"
     assert attrs.counts == {"examples": 1, "frames": 12, "labelled": 1}
     with open_store(path) as s:
@@ -77,13 +78,14 @@ def test_windows_follow_the_robot_protocol(tmp_path):
 
 def test_unlabelled_and_known_d1(tmp_path):
     rec = write_recording(tmp_path, depth=False)
-    path, attrs = import_recording(rec["masks"], rec["csv"], tmp_path / "u.zarr", workers=1)
+    r = import_recording(rec["masks"], rec["csv"], tmp_path / "u.zarr", workers=1)
+    path, attrs = r.path, r.attrs
     assert attrs.counts["labelled"] == 0
     with open_store(path) as s:
         assert math.isnan(s.d1[0]) and np.isnan(s.depth).all()
     assert validate(path).ok
-    path, attrs = import_recording(rec["masks"], rec["csv"], tmp_path / "k.zarr", d1=0.5,
-                                   windows=[10], workers=1)
+    path = import_recording(rec["masks"], rec["csv"], tmp_path / "k.zarr", d1=0.5,
+                            windows=[10], workers=1).path
     with open_store(path) as s:
         np.testing.assert_allclose(s.depth, 0.5 + rec["z"] - rec["z"][0])
         np.testing.assert_allclose(s.d1, 0.5 + rec["z"][:3] - rec["z"][0])
@@ -101,7 +103,7 @@ def test_mask_encodings(tmp_path):
     (rec["masks"] / "f003.png").unlink()
     cv2.imwrite(str(rec["masks"] / "f003.jpg"), jpeg, [cv2.IMWRITE_JPEG_QUALITY, 60])
     rec["csv"].write_text(rec["csv"].read_text().replace("f003.png", "f003.jpg"))
-    path, _ = import_recording(rec["masks"], rec["csv"], tmp_path / "e.zarr", workers=1)
+    path = import_recording(rec["masks"], rec["csv"], tmp_path / "e.zarr", workers=1).path
     with open_store(path) as s:
         m = s.example(0).masks
     for i in range(3):
@@ -174,5 +176,5 @@ def test_skip_bad_imports_the_rest_and_reports(tmp_path):
     for name in ("f004.png", "extra.png", "'0.2x'"):
         assert name in result.output
     with open_store(str(out)) as s:
-        assert s.n_frames == 10 and len([o for o in s.attrs.oddities if o["kind"] == "skipped"]) == 3
+        assert s.n_frames == 10 and len([o for o in s.attrs.oddities if o.kind == "skipped"]) == 3
     assert validate(str(out)).ok

@@ -63,8 +63,8 @@ def scanned(seqs):
 def store(seqs, tmp_path_factory) -> dict:
     """The paper's rules, but windows starting every 3 frames (a third of the frames to write)."""
     out = tmp_path_factory.mktemp("synthia-store") / "street.zarr"
-    path, attrs, summary = import_synthia(seqs["dirs"], out, selection=Selection(stride=3), workers=2)
-    return {"path": path, "attrs": attrs, "summary": summary}
+    r = import_synthia(seqs["dirs"], out, selection=Selection(stride=3), workers=2)
+    return {"path": r.path, "attrs": r.attrs, "summary": r.summary.to_json()}
 
 
 def parse_id(eid: str) -> tuple[str, int, int, int]:
@@ -126,7 +126,7 @@ def test_store_is_valid_and_records_the_oddities(store):
     assert report.ok, report.problems
     kinds: dict[str, set] = {}
     for o in store["attrs"].oddities:
-        kinds.setdefault(o["kind"], set()).add(parse_id(o["example"])[::3])
+        kinds.setdefault(o.kind, set()).add(parse_id(o.subject)[::3])
     assert kinds.pop("z-not-increasing") == {("SYNTHIA-SEQS-02-FOG", 3)}  # the camera backing up
     hidden = {("SYNTHIA-SEQS-01-DAWN", 22)}  # behind the kiosk in frames 3 to 5
     assert kinds.pop("empty-mask") == kinds.pop("depth-not-finite") == hidden
@@ -348,7 +348,7 @@ def test_skip_bad_leaves_out_a_frame_and_splits_its_tracks(small, tmp_path):
     assert len(summary["skipped"]) == 1 and "000002.png: truncated PNG" in summary["skipped"][0]
     with open_store(out) as s:  # windows of 3 frames: only frames 3 to 5 remain together
         assert {parse_id(e)[1:3] for e in s.example_ids} == {(3, 3)}
-        assert [o["kind"] for o in s.attrs.oddities] == ["skipped"]
+        assert [o.kind for o in s.attrs.oddities] == ["skipped"]
 
 
 def test_release_folder_names_and_camera_moves_follow_the_same_rules(official_data_dir):

@@ -188,8 +188,9 @@ def test_incomplete_store_is_refused(tmp_path, small_zarr):
 def test_existing_store_is_not_overwritten_without_asking(tmp_path):
     path = tmp_path / "x.zarr"
     first = generate(str(path), 2, PRESETS["standard"], 1)
-    with pytest.raises(StoreExistsError, match="--overwrite"):
+    with pytest.raises(StoreExistsError, match="already exists") as refused:
         generate(str(path), 2, PRESETS["standard"], 2)
+    assert refused.value.fix == "overwrite"
     assert open_store(str(path)).attrs.digest == first.digest
     second = generate(str(path), 2, PRESETS["standard"], 2, overwrite=True)
     assert open_store(str(path)).attrs.digest == second.digest != first.digest

@@ -1,0 +1,121 @@
+"""`Evaluation`: what `odms-data score` and `odms-data baseline` run, over the ground-truth stores
+of some data folders (ground_truth.py): score a predictions file, or run the VOS-DE baseline
+over stores named by path or by split."""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from ..benchmark import split_order
+from ..errors import InputError
+from ..store.reader import open_store
+from .ground_truth import SplitTruth, data_locations, find_stores, load_truth, stores_by_split, verify_truth
+from .predictions import Predictions, read_predictions, write_predictions
+from .scoring import ScoreReport, score
+from .vosde import vosde
+
+
+@dataclass(frozen=True)
+class BaselineCounts:
+    """One store's VOS-DE run: its examples, those unsolvable (predicted 0) and those with an empty
+    mask among the used observations."""
+
+    split: str
+    examples: int
+    unsolvable: int
+    empty_masks: int
+
+    def __post_init__(self) -> None:
+        if not 0 <= max(self.unsolvable, self.empty_masks) <= self.examples:
+            raise InputError(f"split {self.split}: counts must lie between 0 and its {self.examples} "
+                             "examples")
+
+    def to_json(self) -> dict[str, Any]:
+        return {"split": self.split, "examples": self.examples, "unsolvable": self.unsolvable,
+                "empty_masks": self.empty_masks}
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> BaselineCounts:
+        return cls(d["split"], d["examples"], d["unsolvable"], d["empty_masks"])
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """The benchmark's evaluation over the stores in `data` (folders or stores; none: $ODMS_DATA,
+    else the default folder)."""
+
+    data: Sequence[str] = ()
+
+    def stores(self, names: Sequence[str] = ()) -> list[Path]:
+        """The stores `names` gives (paths, or splits looked up in the data folders; a store named
+        twice counts once), or every store of the data folders in split order."""
+        if not names:
+            every = find_stores(data_locations(self.data))
+            return [every[s] for s in sorted(every, key=split_order)]
+        paths = []
+        found: dict[str, Path] | None = None
+        for s in names:
+            if Path(s).exists():
+                paths.append(Path(s))
+                continue
+            found = found if found is not None else find_stores(data_locations(self.data))
+            if s not in found:
+                close = difflib.get_close_matches(s, list(found), n=1)
+                hint = f"; did you mean {close[0]}?" if close else ""
+                raise InputError(f"{s}: neither a store path nor a split in the data folders{hint} "
+                                 f"(they hold: {', '.join(sorted(found))})")
+            paths.append(found[s])
+        return list(stores_by_split(paths).values())
+
+    def score(
+        self, predictions: str | Path, *, allow_partial: bool = False, verify: bool = False,
+        progress: Callable[[str, int, int], None] | None = None,
+    ) -> tuple[Predictions, ScoreReport]:
+        """The predictions file as read, and its score against the stores of the data folders.
+        With `verify` (what a leaderboard entry needs) a complete score's stores are checked
+        against their digests and manifests first (verify_truth), with `progress(split, frames
+        done, frames total)`."""
+        stores = find_stores(data_locations(self.data))
+        truths = {split: load_truth(path) for split, path in stores.items()}
+        preds = read_predictions(predictions, max_rows=sum(len(t.example_ids) for t in truths.values()))
+        report = score(preds, truths, allow_partial=allow_partial)
+        if verify and not report.partial:
+            for split in sorted(report.digests):
+                _verify(truths[split], progress)
+        return preds, report
+
+    def baseline(
+        self, stores: Sequence[Path], output: str | Path, *, n_obs: int, overwrite: bool = False,
+        progress: Callable[[int], None] = lambda n: None,
+    ) -> tuple[int, list[BaselineCounts]]:
+        """Write VOS-DE's predictions file for `stores` (as `stores()` gives them); the number of
+        predictions and each store's counts. `progress(1)` after each store."""
+        rows, counts = [], []
+        for p in stores:
+            with open_store(str(p)) as s:
+                r = vosde(s, n_obs)
+            progress(1)
+            rows += r.rows()
+            counts.append(BaselineCounts(r.split, len(r.d1), int(r.unsolvable.sum()),
+                                         int(r.empty_masks.sum())))
+        write_predictions(output, rows, overwrite=overwrite)
+        return len(rows), counts
+
+
+def _verify(truth: SplitTruth, progress: Callable[[str, int, int], None] | None) -> None:
+    """verify_truth for one store, reporting the frames read."""
+    with open_store(truth.path) as s:
+        total = s.n_frames
+    done = 0
+
+    def visit(start: int, block: object) -> None:
+        nonlocal done
+        done += len(block)  # type: ignore[arg-type]
+        if progress:
+            progress(truth.split, done, total)
+
+    verify_truth(truth, visit)
