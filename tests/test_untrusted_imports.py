@@ -17,12 +17,14 @@ import struct
 import subprocess
 import sys
 import zlib
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
 
+from odms_data.errors import InputError
 from odms_data.evaluation.leaderboard import load_entries, render_markdown
 from odms_data.shown_text import for_terminal, markdown_link, markdown_text
 
@@ -224,9 +226,12 @@ def test_markdown_cannot_add_rows_html_or_script_links():
 
 
 def test_a_hostile_leaderboard_entry_stays_in_its_row():
-    entry = dict(load_entries()[0])
-    entry.update(name="Evil | 0.1 |\n| 1 | <script>x</script>", link="javascript:alert(1)",
-                 training_data="[a](javascript:b)", citation="<b>me</b>")
+    first = load_entries()[0]
+    with pytest.raises(InputError, match="link"):  # an entry is checked when made: no script link
+        replace(first, link="javascript:alert(1)")
+    entry = replace(first, name="Evil | 0.1 |\n| 1 | <script>x</script>",
+                    link="https://e.org/x) [y](javascript:alert(1)", training_data="[a](javascript:b)",
+                    citation="<b>me</b>")
     board = render_markdown([entry], "test")
     row = next(line for line in board.splitlines() if line.startswith("| 1 |"))
     assert row.count(" | ") == board.splitlines()[2].count(" | ")  # the header's cells, no more
@@ -250,5 +255,5 @@ def test_meta_device_is_an_input_error():
     from odms_data.errors import InputError
     from odms_data.network.prediction import pick_device
 
-    with pytest.raises(InputError, match="--device meta: not a device"):
+    with pytest.raises(InputError, match="device meta: not a device"):
         pick_device("meta")

@@ -21,6 +21,7 @@ import pytest
 from PIL import Image
 
 from odms_data.errors import InputError, OdmsError, OutputLockedError, WriteError
+from odms_data.network.checkpoint import Checkpoint
 from odms_data.network.run_folder import RUN_KIND, RunFolder, TrainConfig
 from odms_data.network.training import _save, train
 from odms_data.outputs import MARKER, NAME_MAX, output_lock, replaced_via_partial, sibling, write_text
@@ -216,14 +217,14 @@ def test_a_full_disk_while_saving_a_checkpoint_is_one_line(tmp_path):
     import torch
 
     last = tmp_path / "last.pt"
-    _save(last, {"iteration": 1})
+    _save(last, Checkpoint(1, {}))
     old = last.read_bytes()
     limits = resource.getrlimit(resource.RLIMIT_FSIZE)
     handler = signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
     resource.setrlimit(resource.RLIMIT_FSIZE, (len(old) + 4096, limits[1]))
     try:
         with pytest.raises(WriteError) as e:
-            _save(last, {"iteration": 2, "model": torch.zeros(100_000)})
+            _save(last, Checkpoint(2, {"w": torch.zeros(100_000)}))
     finally:
         resource.setrlimit(resource.RLIMIT_FSIZE, limits)
         signal.signal(signal.SIGXFSZ, handler)

@@ -95,7 +95,7 @@ def test_entry_is_schema_valid_and_joins_the_leaderboard(tmp_path, official_like
 
     truths = {s: load_truth(p) for s, p in find_stores([official_like]).items()}
     report = score(read_predictions(_preds(tmp_path, 1.05)), truths)
-    entry = entry_from_report(report, "Mine", link="https://example.org/mine")
+    entry = entry_from_report(report, "Mine", link="https://example.org/mine").to_json()
     assert entry_problems(entry) == []
     assert entry["figures"] == "computed" and entry["results"]["test"]["all"] == pytest.approx(5.0)
     assert set(entry["scored"]["stores"]) == set(OFFICIAL)
