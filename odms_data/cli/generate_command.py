@@ -7,6 +7,7 @@ import json
 import click
 
 from ..errors import InputError
+from ..extras import optional
 from ..simulate.params import DEFAULT_EXAMPLES_PER_SHARD, PRESETS, GeneratorParams
 from ..simulate.params import preset as make_preset
 from . import echo_json
@@ -69,6 +70,8 @@ def generate(split_name, count, preset, seed, n_obs, params, store_split, output
 
     if scheduler and workers is not None:
         raise InputError("--workers and --scheduler exclude each other; the cluster has its own workers")
+    if scheduler:
+        optional("distributed", "odms-data generate --scheduler")  # before the store is begun
     overrides = _parse_param(params)
     manifest = None
     if split_name:

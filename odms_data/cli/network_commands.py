@@ -12,6 +12,7 @@ from typing import Any
 import click
 
 from ..errors import Interrupted
+from ..extras import install_line, optional
 from ..network.variants import VARIANTS
 from ..simulate.params import PRESETS
 from .progress import PERIOD, duration, progress
@@ -101,6 +102,7 @@ def train(ctx, model, radial, run, val, iterations, batch_size, lr, val_every, n
           --val stores/driving-val.zarr --val stores/normal-val.zarr --val stores/perturb-val.zarr
       odms-data train --model odn-d -o runs/quick --val sim-val.zarr --iterations 200 --batch-size 64
     """
+    optional("torch", "odms-data train")
     from ..network.curves import draw
     from ..network.run_folder import PLOT, RunFolder, TrainConfig
     from ..network.training import train as run_training
@@ -126,7 +128,7 @@ def train(ctx, model, radial, run, val, iterations, batch_size, lr, val_every, n
                    f"percent error {s.best:.2f} at iteration {s.best_iteration} (best.pt)")
     plot = draw(RunFolder(run))
     click.echo(f"curves: {Path(run) / 'curves.csv'}" + (f", {Path(run) / PLOT}" if plot else
-               " (curves.png not drawn: matplotlib is missing; pip install 'odms-data[plot]')"))
+               f" (curves.png not drawn: matplotlib is missing; {install_line('plot')})"))
 
 
 @click.command()
@@ -148,6 +150,7 @@ def predict(run, data, output, checkpoint, workers, device, overwrite):
       odms-data score odn-l.csv --data ./odms-stores
       odms-data predict runs/odn-l --data sim-test.zarr --checkpoint last -o sim.csv
     """
+    optional("torch", "odms-data predict")
     from ..evaluation.ground_truth import data_locations, find_stores
     from ..network.prediction import predict as run_prediction
     from ..network.run_folder import RunFolder

@@ -6,6 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import MissingExtraError
+from ..extras import pyplot
 from ..outputs import replaced_via_partial
 from .run_folder import CURVES, PLOT, TRAIN, VAL, RunFolder, read_curves
 
@@ -19,11 +21,9 @@ def _moving_mean(y: np.ndarray, k: int) -> np.ndarray:
 def draw(folder: RunFolder) -> Path | None:
     """Draw RUN/curves.png from RUN/curves.csv; None when matplotlib is not installed."""
     try:
-        import matplotlib
-    except ImportError:
+        plt = pyplot("curves.png")
+    except MissingExtraError:
         return None
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
     rows = read_curves(folder.file(CURVES))
     config = folder.config()
