@@ -8,7 +8,7 @@ import click
 
 from ..errors import InputError
 from ..extras import optional
-from ..simulate.params import DEFAULT_EXAMPLES_PER_SHARD, PRESETS, GeneratorParams
+from ..simulate.params import DEFAULT_EXAMPLES_PER_SHARD, PRESETS, GeneratorParams, closest_parameter
 from ..simulate.params import preset as make_preset
 from . import echo_json
 from .progress import progress
@@ -19,7 +19,9 @@ def _parse_param(values: tuple[str, ...]) -> dict:
     for item in values:
         key, sep, raw = item.partition("=")
         if not sep or not key:
-            raise InputError(f"--param '{item}': expected NAME=VALUE, e.g. --param d_max=0.9")
+            name = closest_parameter(key) or "d_max"
+            raise InputError(f"--param '{item}': expected NAME=VALUE, e.g. --param "
+                             f"{name}={json.dumps(getattr(PRESETS['standard'], name))}")
         try:
             out[key] = json.loads(raw)
         except json.JSONDecodeError:
