@@ -135,8 +135,10 @@ def train(ctx, model, radial, run, val, iterations, batch_size, lr, val_every, n
 @click.argument("run", type=click.Path())
 @click.option("--data", multiple=True, type=click.Path(), help=DATA_HELP)
 @click.option("-o", "--output", type=click.Path(), required=True, help="Predictions CSV to write.")
-@click.option("--checkpoint", type=click.Choice(["best", "last"]), default="best", show_default=True,
-              help="Which of the run's checkpoints predicts.")
+@click.option("--checkpoint", type=click.Choice(["best", "last", "per-set"]), default="best",
+              show_default=True,
+              help="Which of the run's checkpoints predicts; per-set: for each store, the best on the "
+                   "validation set of its domain (robot-val's for robot-test), as for the paper's Table 1.")
 @click.option("--workers", type=click.IntRange(min=0), default=os.cpu_count() or 1, show_default="all cores",
               help="Processes reading the stores (0: in this process).")
 @click.option("--device", default=None, help="cpu, cuda, cuda:1, ... (default: a GPU when there is one).")
@@ -149,6 +151,7 @@ def predict(run, data, output, checkpoint, workers, device, overwrite):
       odms-data predict runs/odn-l --data ./odms-stores -o odn-l.csv
       odms-data score odn-l.csv --data ./odms-stores
       odms-data predict runs/odn-l --data sim-test.zarr --checkpoint last -o sim.csv
+      odms-data predict runs/odn-l --data ./odms-stores --checkpoint per-set -o odn-l-table1.csv
     """
     optional("torch", "odms-data predict")
     from ..evaluation.ground_truth import data_locations, find_stores
@@ -166,5 +169,7 @@ def predict(run, data, output, checkpoint, workers, device, overwrite):
     with progress(total, f"predicting with {run}") as update:
         rows, config, at = run_prediction(folder, stores, output, which=checkpoint, workers=workers,
                                           device=device, overwrite=overwrite, progress=update)
+    iterations = (f"iteration {next(iter(at.values()))}" if len(set(at.values())) == 1
+                  else "iterations " + ", ".join(f"{split} {i}" for split, i in at.items()))
     click.echo(f"wrote {output}: {rows} predictions of {config.model} ({checkpoint} checkpoint, "
-               f"iteration {at}) for {', '.join(sorted(stores))}")
+               f"{iterations}) for {', '.join(sorted(stores))}")

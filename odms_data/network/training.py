@@ -4,7 +4,8 @@ As the paper (section 4) and the authors' released demo train it: Adam with lear
 batches of 512 freshly generated examples, an L1 loss between the output and the variant's label
 (loaders/targets.py), 5,000 iterations. Every `val_every` iterations (the paper: 10) and at the
 last, the network is evaluated on the validation stores; `best.pt` keeps the weights whose mean
-of the stores' mean percent errors is lowest, `last.pt` what a resumed run needs (weights, Adam's
+of the stores' mean percent errors is lowest, `best-SPLIT.pt` those lowest on each store (the
+authors picked a checkpoint per set so), `last.pt` what a resumed run needs (weights, Adam's
 state, the random state, the iteration). The stream's batch b depends only on (preset, seed,
 n_obs, batch size, b), so a run resumed from last.pt sees exactly the batches it would have seen.
 """
@@ -14,7 +15,7 @@ from __future__ import annotations
 import io
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -30,7 +31,7 @@ from ..store.reader import open_store
 from . import odn
 from .odn import ODN
 from .prediction import Batch, outputs_and_depths, pick_device, read_checkpoint, store_batches, to_device
-from .run_folder import BEST, LAST, RUN_KIND, TRAIN, VAL, AddRow, RunFolder, TrainConfig
+from .run_folder import BEST, LAST, RUN_KIND, TRAIN, VAL, AddRow, RunFolder, TrainConfig, best_of
 from .variants import Variant, variant
 
 
@@ -50,6 +51,7 @@ class Status:
     best: float | None = None
     best_iteration: int | None = None
     checkpoint: int = 0  # the iteration of last.pt, where a rerun resumes
+    best_per_set: dict[str, tuple[float, int]] = field(default_factory=dict)  # split: (error, iteration)
 
     @property
     def iterations_per_s(self) -> float:
@@ -136,6 +138,7 @@ def _train(path: str | Path, config: TrainConfig, workers: int, device: str | No
     if saved:
         status.iteration = status.started_at = status.checkpoint = int(saved["iteration"])
         status.best, status.best_iteration = saved["best"], saved["best_iteration"]
+        status.best_per_set = {k: (float(e), int(i)) for k, (e, i) in saved.get("best_per_set", {}).items()}
     if status.iteration >= config.iterations:
         return status
     validation = Validation(config, dev, workers)  # reads the stores: their problems show before any write
@@ -192,10 +195,16 @@ def _validate(folder: RunFolder, model: ODN, optimizer: torch.optim.Optimizer, v
         status.best, status.best_iteration = status.val, status.iteration
         _save(folder.file(BEST), {"iteration": status.iteration, "model": model.state_dict(),
                                   "percent_error": status.val})
+    for split, (_, error) in results.items():
+        if split not in status.best_per_set or error < status.best_per_set[split][0]:
+            status.best_per_set[split] = (error, status.iteration)
+            _save(folder.file(best_of(split)), {"iteration": status.iteration, "model": model.state_dict(),
+                                                "percent_error": error})
     _save(folder.file(LAST), {
         "iteration": status.iteration, "seconds": seconds, "model": model.state_dict(),
         "optimizer": optimizer.state_dict(), "rng": torch.get_rng_state(),
         **({"cuda_rng": torch.cuda.get_rng_state(dev)} if dev.type == "cuda" else {}),
         "best": status.best, "best_iteration": status.best_iteration,
+        "best_per_set": {k: list(v) for k, v in status.best_per_set.items()},
     })
     status.checkpoint = status.iteration
