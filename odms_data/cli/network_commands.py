@@ -28,6 +28,12 @@ def _describe(s: Any) -> str:
     return text
 
 
+def _left(s: Any) -> str:
+    """The time left (training.Status.seconds_left: validations included), once it is known."""
+    left = s.seconds_left
+    return f", about {duration(left)} left" if left else ""
+
+
 class _TrainProgress:
     """A bar on a terminal; elsewhere (a log file) a line every PERIOD seconds and at the end."""
 
@@ -45,14 +51,14 @@ class _TrainProgress:
         if self.tty:
             if self.bar is None:
                 self.bar = click.progressbar(length=s.iterations - s.started_at, label="iterations",
-                                             file=sys.stderr, item_show_func=_describe)
+                                             file=sys.stderr, show_eta=False,
+                                             item_show_func=lambda s: s and _describe(s) + _left(s))
                 self.bar.__enter__()
             self.bar.update(1, s)
         elif time.monotonic() - self.last >= PERIOD or s.iteration == s.iterations:
             self.last = time.monotonic()
-            left = (s.iterations - s.iteration) / s.iterations_per_s if s.iterations_per_s else 0
-            click.echo(f"iteration {s.iteration}/{s.iterations}, {duration(s.seconds)} elapsed"
-                       + (f", about {duration(left)} left" if left else "") + f": {_describe(s)}", err=True)
+            click.echo(f"iteration {s.iteration}/{s.iterations}, {duration(s.seconds)} elapsed{_left(s)}: "
+                       f"{_describe(s)}", err=True)
 
     def close(self) -> None:
         if self.bar is not None:

@@ -51,6 +51,10 @@ class Status:
     best: float | None = None
     best_iteration: int | None = None
     checkpoint: int = 0  # the iteration of last.pt, where a rerun resumes
+    val_every: int = 1
+    first_seconds: float = 0.0  # this session's first iteration, which includes the loader's start
+    val_seconds: float = 0.0  # this session's time in validation (and checkpoints)
+    validations: int = 0  # ... over this many
     best_per_set: dict[str, tuple[float, int]] = field(default_factory=dict)  # split: (error, iteration)
 
     @property
@@ -60,6 +64,19 @@ class Status:
     @property
     def examples_per_s(self) -> float:
         return self.iterations_per_s * self.batch_size
+
+    @property
+    def seconds_left(self) -> float | None:
+        """Wall time to the end: the iterations left at the rate of this session's after its first,
+        and the validations left at their mean time; None until both were measured."""
+        steps = self.iteration - self.started_at - 1
+        if steps < 1 or not self.validations:
+            return None
+        per_step = max(0.0, self.seconds - self.first_seconds - self.val_seconds) / steps
+        last = self.iterations % self.val_every != 0 and self.iteration < self.iterations  # validated too
+        validations_left = self.iterations // self.val_every - self.iteration // self.val_every + last
+        per_validation = self.val_seconds / self.validations
+        return (self.iterations - self.iteration) * per_step + validations_left * per_validation
 
 
 def stream_params(config: TrainConfig) -> GeneratorParams:
@@ -133,7 +150,7 @@ def train(
 def _train(path: str | Path, config: TrainConfig, workers: int, device: str | None, overwrite: bool,
            report: Callable[[Status], None]) -> Status:
     folder, v, dev = RunFolder(path), variant(config.model), pick_device(device)
-    status = Status(0, config.iterations, config.batch_size, 0, 0.0, str(dev))
+    status = Status(0, config.iterations, config.batch_size, 0, 0.0, str(dev), val_every=config.val_every)
     saved = read_checkpoint(folder.file(LAST)) if folder.check(config, overwrite) else {}
     if saved:
         status.iteration = status.started_at = status.checkpoint = int(saved["iteration"])
@@ -166,9 +183,15 @@ def _train(path: str | Path, config: TrainConfig, workers: int, device: str | No
         for it, batch in enumerate(loader, status.iteration + 1):
             _step(model, optimizer, v, to_device(batch, dev), status)
             status.iteration, status.seconds = it, time.perf_counter() - start
+            if it == status.started_at + 1:
+                status.first_seconds = status.seconds
             add(it, spent + status.seconds, TRAIN, status.loss, status.train_error)
             if it % config.val_every == 0 or it == config.iterations:
                 _validate(folder, model, optimizer, validation, status, add, spent + status.seconds, dev)
+                validated = time.perf_counter() - start
+                status.val_seconds += validated - status.seconds
+                status.validations += 1
+                status.seconds = validated
             report(status)
     return status
 
