@@ -94,12 +94,14 @@ def _start_fork_server() -> None:
     path = [os.getcwd() if p == "" else p for p in sys.path]
     saved = {k: os.environ.get(k) for k in ("PYTHONSAFEPATH", "PYTHONPATH")}
     os.environ.update(PYTHONSAFEPATH="1", PYTHONPATH=os.pathsep.join(path))
+    # not from another thread (signal.signal would raise), nor over a handler Python did not set
     main_thread = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main_thread else None
+    ours = main_thread and signal.getsignal(signal.SIGINT) is not None
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if ours else None
     try:
         multiprocessing.forkserver.ensure_running()
     finally:
-        if main_thread:
+        if ours:
             signal.signal(signal.SIGINT, previous)
         for k, v in saved.items():
             if v is None:
