@@ -44,6 +44,15 @@ class WriteError(OdmsError):
     """An output could not be written (a full disk, no permission); the message names its path."""
 
 
+class MissingExtraError(OdmsError, ImportError):
+    """An optional dependency is not installed; the message names the extra that installs it
+    (extras.py). An ImportError too, for code that imports a loader and catches that."""
+
+    def __init__(self, message: str, name: str) -> None:
+        super().__init__(message)
+        self.name = name  # the missing module, as ImportError names it
+
+
 class Interrupted(KeyboardInterrupt):
     """A stop asked for by a signal (SIGINT, SIGTERM or SIGHUP), handled as Ctrl-C is."""
 

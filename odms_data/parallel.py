@@ -14,14 +14,20 @@ caller itself: forking a process that runs JAX, TensorFlow or zarr threads is un
 server is shared by the whole process: the first pool (ours or anyone's) starts it with its
 preloaded modules; a worker forked from one that has not loaded ours loads them itself, as a
 spawned one does. A forked worker takes the caller's working folder, sys.path and main module as
-a spawned one does, but the environment variables the fork server started with. Where there is
-no fork server (Windows), workers are spawned.
+a spawned one does, but the environment variables the fork server started with. The fork server
+we start imports with the caller's sys.path (`_start_fork_server`), so that the modules it preloads
+are the caller's copies. The fork server and workers ignore SIGINT: Ctrl-C reaches the whole process
+group, and the caller alone stops the work and says so in one line (the command line's interrupt
+handling). Where there is no fork server (Windows), workers are spawned.
 """
 
 from __future__ import annotations
 
 import multiprocessing
+import multiprocessing.forkserver
 import os
+import signal
+import sys
 import threading
 from collections import deque
 from collections.abc import Callable, Generator, Iterable
@@ -67,10 +73,51 @@ def _context() -> multiprocessing.context.BaseContext:
         return multiprocessing.get_context("spawn")
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload([WARM_START])  # read when the fork server starts, if not yet
+    _start_fork_server()
     return context
 
 
+def _start_fork_server() -> None:
+    """Start the fork server, if not yet, importing from this process's sys.path. multiprocessing
+    starts it as `python -c`, which puts the current folder first on its path and (Python 3.11)
+    ignores the sys.path it is sent: run from a clone of odms-data, it preloaded the clone's
+    odms_data where this process had imported the installed one, and workers forked from it ran
+    that other code. PYTHONSAFEPATH drops the current folder, PYTHONPATH gives this process's path;
+    both are set only while the server starts (it keeps them in its environment).
+
+    SIGINT is ignored while the server is started, so that the server inherits that: a Ctrl-C while
+    it loaded the kernels printed its traceback (100 lines) above the caller's one line. A Ctrl-C in
+    those few milliseconds is lost; one during the kernels' loading, seconds long, is not. A first
+    process that does nothing waits for that loading: a pool's worker whose start a Ctrl-C cut
+    short failed, once forked, on its pool's semaphores, which the stopped caller had removed."""
+    path = [os.getcwd() if p == "" else p for p in sys.path]
+    saved = {k: os.environ.get(k) for k in ("PYTHONSAFEPATH", "PYTHONPATH")}
+    os.environ.update(PYTHONSAFEPATH="1", PYTHONPATH=os.pathsep.join(path))
+    # not from another thread (signal.signal would raise), nor over a handler Python did not set
+    main_thread = threading.current_thread() is threading.main_thread()
+    ours = main_thread and signal.getsignal(signal.SIGINT) is not None
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if ours else None
+    try:
+        multiprocessing.forkserver.ensure_running()
+    finally:
+        if ours:
+            signal.signal(signal.SIGINT, previous)
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+    ready = multiprocessing.get_context("forkserver").Process(target=_nothing, name="fork-server-ready")
+    ready.start()
+    ready.join()
+
+
+def _nothing() -> None:
+    pass
+
+
 def _start_worker(initializer: Callable[..., None] | None, initargs: tuple[Any, ...]) -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # also from a fork server not ours: the caller stops us
     parent = multiprocessing.parent_process()
     if parent is not None:
         threading.Thread(target=_exit_with, args=(parent,), daemon=True, name="exit-with-parent").start()

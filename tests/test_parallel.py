@@ -191,3 +191,16 @@ def test_the_process_handing_out_shard_tasks_does_not_import_the_renderer(tmp_pa
     assert run.returncode == 0, run.stderr
     assert run.stdout.strip() == "neither"
     assert (tmp_path / "s.zarr" / "zarr.json").is_file()
+
+
+def test_workers_import_the_callers_odms_data_not_the_current_folders(tmp_path):
+    """Run from a folder holding another odms_data (a clone, say), the workers use the caller's."""
+    decoy = tmp_path / "odms_data"
+    decoy.mkdir()
+    (decoy / "__init__.py").write_text("raise RuntimeError('the decoy odms_data was imported')\n")
+    command = Path(sys.executable).with_name("odms-data")
+    r = subprocess.run([str(command), "generate", "-n", "4", "--examples-per-shard", "2", "--workers", "2",
+                        "--param", "image_size=[48,64]", "-o", "out.zarr"],
+                       capture_output=True, text=True, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert "decoy" not in r.stderr and (tmp_path / "out.zarr").is_dir()

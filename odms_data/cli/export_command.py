@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import click
 
+from ..extras import optional
 from ..store.reader import open_store
 from . import echo_json, echo_text
 from .progress import progress
@@ -31,6 +32,7 @@ def export(stores, output, name, licence, examples_per_file, overwrite, as_json)
       odms-data export sim-val.zarr sim-test.zarr -o odms-sim
       odms-data export stores/*-val.zarr -o odms-val --name "ODMS validation"
     """
+    optional("pyarrow", "odms-data export")  # before the stores are read
     from ..store.hub_export import export_hub
 
     total = 0

@@ -7,7 +7,13 @@ import json
 import click
 
 from ..errors import InputError
-from ..simulate.params import DEFAULT_EXAMPLES_PER_SHARD, PRESETS, merged_params
+from ..extras import optional
+from ..simulate.params import (
+    DEFAULT_EXAMPLES_PER_SHARD,
+    PRESETS,
+    closest_parameter,
+    merged_params,
+)
 from . import echo_json
 from .progress import progress
 
@@ -17,7 +23,9 @@ def _parse_param(values: tuple[str, ...]) -> dict:
     for item in values:
         key, sep, raw = item.partition("=")
         if not sep or not key:
-            raise InputError(f"--param '{item}': expected NAME=VALUE, e.g. --param d_max=0.9")
+            name = closest_parameter(key) or "d_max"
+            raise InputError(f"--param '{item}': expected NAME=VALUE, e.g. --param "
+                             f"{name}={json.dumps(getattr(PRESETS['standard'], name))}")
         try:
             out[key] = json.loads(raw)
         except json.JSONDecodeError:
@@ -53,6 +61,16 @@ def _parse_param(values: tuple[str, ...]) -> dict:
               help="Run the shards on the Dask cluster of this scheduler (e.g. tcp://host:8786) "
                    "instead of local --workers; needs the dask extra. The output must be a path "
                    "every worker sees, or a URL such as s3://bucket/train.zarr.")
+def _split_recipe(split_name: str, given: list[str]):
+    """The named split's recipe; InputError when options that it fixes were `given` too."""
+    from ..simulate.generate_store import split_recipe
+
+    recipe = split_recipe(split_name)
+    if given:
+        raise InputError(f"--split {split_name} fixes its parameters; drop {', '.join(given)}")
+    return recipe
+
+
 def generate(split_name, count, preset, seed, n_obs, params, store_split, output, fmt, workers,
              examples_per_shard, overwrite, as_json, scheduler):
     """Generate simulated ODMS examples into a store.
@@ -64,19 +82,18 @@ def generate(split_name, count, preset, seed, n_obs, params, store_split, output
       odms-data generate -n 2560000 --scheduler tcp://head:8786 -o s3://lab/odms/train.zarr
     """
     from ..simulate.generate_store import generate as generate_store
-    from ..simulate.generate_store import split_recipe
     from ..store.manifests import check_against_manifest
 
     if scheduler and workers is not None:
         raise InputError("--workers and --scheduler exclude each other; the cluster has its own workers")
+    if scheduler:
+        optional("distributed", "odms-data generate --scheduler")  # before the store is begun
     overrides = _parse_param(params)
     manifest = None
     if split_name:
-        recipe = split_recipe(split_name)
         given = [o for o, v in (("-n", count), ("--preset", preset), ("--seed", seed),
                                 ("--n-obs", n_obs), ("--param", params), ("--name", store_split)) if v]
-        if given:
-            raise InputError(f"--split {split_name} fixes its parameters; drop {', '.join(given)}")
+        recipe = _split_recipe(split_name, given)
         manifest, count, preset, seed = recipe.manifest, recipe.count, recipe.preset, recipe.seed
         overrides, store_split = recipe.overrides, split_name
     elif count is None:

@@ -11,6 +11,7 @@ from typing import Any
 import click
 
 from ..errors import Interrupted
+from ..extras import install_line, optional
 from ..network.variants import VARIANTS
 from ..parallel import cores
 from ..simulate.params import PRESETS
@@ -25,6 +26,12 @@ def _describe(s: Any) -> str:
     if s.val is not None:
         text += f", val {s.val:.2f}%, best {s.best:.2f}% at {s.best_iteration}"
     return text
+
+
+def _left(s: Any) -> str:
+    """The time left (training.Status.seconds_left: validations included), once it is known."""
+    left = s.seconds_left
+    return f", about {duration(left)} left" if left else ""
 
 
 class _TrainProgress:
@@ -44,14 +51,14 @@ class _TrainProgress:
         if self.tty:
             if self.bar is None:
                 self.bar = click.progressbar(length=s.iterations - s.started_at, label="iterations",
-                                             file=sys.stderr, item_show_func=_describe)
+                                             file=sys.stderr, show_eta=False,
+                                             item_show_func=lambda s: s and _describe(s) + _left(s))
                 self.bar.__enter__()
             self.bar.update(1, s)
         elif time.monotonic() - self.last >= PERIOD or s.iteration == s.iterations:
             self.last = time.monotonic()
-            left = (s.iterations - s.iteration) / s.iterations_per_s if s.iterations_per_s else 0
-            click.echo(f"iteration {s.iteration}/{s.iterations}, {duration(s.seconds)} elapsed"
-                       + (f", about {duration(left)} left" if left else "") + f": {_describe(s)}", err=True)
+            click.echo(f"iteration {s.iteration}/{s.iterations}, {duration(s.seconds)} elapsed{_left(s)}: "
+                       f"{_describe(s)}", err=True)
 
     def close(self) -> None:
         if self.bar is not None:
@@ -101,6 +108,7 @@ def train(ctx, model, radial, run, val, iterations, batch_size, lr, val_every, n
           --val stores/driving-val.zarr --val stores/normal-val.zarr --val stores/perturb-val.zarr
       odms-data train --model odn-d -o runs/quick --val sim-val.zarr --iterations 200 --batch-size 64
     """
+    optional("torch", "odms-data train")
     from ..network.curves import draw
     from ..network.run_folder import PLOT, RunFolder, TrainConfig
     from ..network.training import train as run_training
@@ -127,15 +135,17 @@ def train(ctx, model, radial, run, val, iterations, batch_size, lr, val_every, n
                    f"percent error {s.best:.2f} at iteration {s.best_iteration} (best.pt)")
     plot = draw(RunFolder(run))
     click.echo(f"curves: {Path(run) / 'curves.csv'}" + (f", {Path(run) / PLOT}" if plot else
-               " (curves.png not drawn: matplotlib is missing; pip install 'odms-data[plot]')"))
+               f" (curves.png not drawn: matplotlib is missing; {install_line('plot')})"))
 
 
 @click.command()
 @click.argument("run", type=click.Path())
 @click.option("--data", multiple=True, type=click.Path(), help=DATA_HELP)
 @click.option("-o", "--output", type=click.Path(), required=True, help="Predictions CSV to write.")
-@click.option("--checkpoint", type=click.Choice(["best", "last"]), default="best", show_default=True,
-              help="Which of the run's checkpoints predicts.")
+@click.option("--checkpoint", type=click.Choice(["best", "last", "per-set"]), default="best",
+              show_default=True,
+              help="Which of the run's checkpoints predicts; per-set: for each store, the best on the "
+                   "validation set of its domain (robot-val's for robot-test), as for the paper's Table 1.")
 @click.option("--workers", type=click.IntRange(min=0), default=None, show_default="all cores",
               help="Processes reading the stores (0: in this process).")
 @click.option("--device", default=None, help="cpu, cuda, cuda:1, ... (default: a GPU when there is one).")
@@ -148,7 +158,9 @@ def predict(run, data, output, checkpoint, workers, device, overwrite):
       odms-data predict runs/odn-l --data ./odms-stores -o odn-l.csv
       odms-data score odn-l.csv --data ./odms-stores
       odms-data predict runs/odn-l --data sim-test.zarr --checkpoint last -o sim.csv
+      odms-data predict runs/odn-l --data ./odms-stores --checkpoint per-set -o odn-l-table1.csv
     """
+    optional("torch", "odms-data predict")
     from ..evaluation.ground_truth import data_locations, find_stores
     from ..network.prediction import predict as run_prediction
     from ..network.run_folder import RunFolder
@@ -160,5 +172,7 @@ def predict(run, data, output, checkpoint, workers, device, overwrite):
         rows, config, at = run_prediction(folder, stores, output, which=checkpoint,
                                           workers=cores() if workers is None else workers,
                                           device=device, overwrite=overwrite, progress=bars)
+    iterations = (f"iteration {next(iter(at.values()))}" if len(set(at.values())) == 1
+                  else "iterations " + ", ".join(f"{split} {i}" for split, i in at.items()))
     click.echo(f"wrote {output}: {rows} predictions of {config.model} ({checkpoint} checkpoint, "
-               f"iteration {at}) for {', '.join(sorted(stores))}")
+               f"{iterations}) for {', '.join(sorted(stores))}")

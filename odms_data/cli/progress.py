@@ -2,7 +2,8 @@
 
 On a terminal: a bar with the rate and ETA. Elsewhere (a log file, CI, a pipe), where a bar would
 print nothing useful: one line when work starts, one every PERIOD seconds with the count, elapsed
-time and ETA, and one when it is done.
+time and ETA, and one when it is done. The ETA is the rate since the first report's: the time
+before the first item (workers starting, kernels loading) is no measure of the rest.
 """
 
 from __future__ import annotations
@@ -27,22 +28,26 @@ def duration(seconds: float) -> str:
 class _Lines:
     """Periodic one-line updates: `label: done/total (pct), elapsed, ETA`."""
 
-    def __init__(self, total: int, label: str) -> None:
-        self.total, self.label, self.done = total, label, 0
-        self.start = time.monotonic()
+    def __init__(self, total: int, label: str, clock: Callable[[], float] = time.monotonic) -> None:
+        self.total, self.label, self.done, self.clock = total, label, 0, clock
+        self.start = clock()
         self.last = -PERIOD
+        self.first: tuple[float, int] | None = None  # (time, done) at the first update
 
     def line(self) -> str:
-        elapsed = time.monotonic() - self.start
+        now = self.clock()
         pct = 100 * self.done / self.total if self.total else 100.0
-        text = f"{self.label}: {self.done}/{self.total} ({pct:.0f}%), {duration(elapsed)} elapsed"
-        if 0 < self.done < self.total:
-            text += f", about {duration(elapsed * (self.total - self.done) / self.done)} left"
+        text = f"{self.label}: {self.done}/{self.total} ({pct:.0f}%), {duration(now - self.start)} elapsed"
+        if self.first is not None and self.first[1] < self.done < self.total and now > self.first[0]:
+            rate = (self.done - self.first[1]) / (now - self.first[0])
+            text += f", about {duration((self.total - self.done) / rate)} left"
         return text
 
     def update(self, n: int) -> None:
         self.done += n
-        now = time.monotonic()
+        now = self.clock()
+        if self.first is None:
+            self.first = (now, self.done)
         if now - self.last >= PERIOD and self.done < self.total:
             click.echo(self.line(), err=True)
             self.last = now

@@ -124,19 +124,22 @@ def convert(src, dst, fmt, overwrite, as_json):
 @click.argument("example_id")
 @click.option("-o", "--output", type=click.Path(), required=True,
               help="Image file to write (PNG, or another format by its suffix).")
+@click.option("--crop", is_flag=True, help="Cut every mask to the box around the object (with a margin), "
+              "so that a small object fills its thumbnail.")
 @click.option("--overwrite", is_flag=True, help="Replace an existing image file.")
-def show(store, example_id, output, overwrite):
+def show(store, example_id, output, crop, overwrite):
     """Draw one example's masks as a contact sheet, with z and depth under each.
 
     \b
     Example:
       odms-data show sim-val.zarr sim-val/000042 -o sheet.png
+      odms-data show sim-val.zarr sim-val/000042 --crop -o object.png
     """
     from ..store.contact_sheet import contact_sheet, image_format, save_image
 
     check_replaceable(output, overwrite, option="-o")
     image_format(output)
     with open_store(store) as s:
-        sheet = contact_sheet(s.example(example_id))
+        sheet = contact_sheet(s.example(example_id), crop=crop)
     save_image(sheet, output, overwrite=overwrite)
     click.echo(f"wrote {output}")

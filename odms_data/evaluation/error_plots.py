@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..extras import pyplot
 from ..outputs import atomic_file
 from .scoring import ScoreReport
 
@@ -15,24 +16,10 @@ LINEAR_BELOW = 10  # percent: the y axis is symlog, linear up to here so that 0 
 TICKS = [0, 2, 5] + [m * 10**k for k in range(1, 7) for m in (1, 2, 5)]  # labelled percent errors
 
 
-def pyplot():
-    """matplotlib.pyplot on the Agg backend; InputError saying how to install it when missing."""
-    try:
-        import matplotlib
-    except ImportError:
-        raise InputError(
-            "--plot needs matplotlib, which is not installed; pip install 'odms-data[plot]'"
-        ) from None
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
 def plot_format(path: str) -> str:
     """The file format matplotlib writes for `path`'s suffix; InputError when it has none it knows
     (matplotlib would otherwise add `.png` to the name)."""
-    pyplot()
+    pyplot("odms-data score --plot")
     from matplotlib.backend_bases import FigureCanvasBase
 
     known = FigureCanvasBase.get_supported_filetypes()
@@ -48,7 +35,7 @@ def plot_errors(report: ScoreReport, path: str, *, overwrite: bool = False) -> N
     """Scatter of each example's percent error against its true depth d1, with the binned median,
     written to `path` (format from its suffix) as every output is (outputs.atomic_file)."""
     fmt = plot_format(path)
-    plt = pyplot()
+    plt = pyplot("odms-data score --plot")
     from matplotlib import ticker
 
     splits = [s for s in report.scores if s.split in report.errors]

@@ -7,6 +7,7 @@ odms-data from a predictions file, with the store digests they were scored again
 from __future__ import annotations
 
 import datetime
+import difflib
 import hashlib
 import json
 import math
@@ -86,6 +87,13 @@ class LeaderboardEntry:
 def load_entries(folder: Path | None = None) -> list[LeaderboardEntry]:
     """Every entry of `folder` (default: the shipped leaderboard/), checked; names must be unique."""
     folder = Path(folder) if folder else resource_dir("leaderboard")
+    if not folder.is_dir():
+        siblings = [p.name for p in folder.parent.iterdir() if p.is_dir()] if folder.parent.is_dir() else []
+        close = difflib.get_close_matches(folder.name, siblings, n=1)
+        hint = f"; did you mean {folder.parent / close[0]}?" if close else ""
+        raise InputError(f"{folder}: no such folder of leaderboard entries{hint}")
+    if not any(folder.glob("*.json")):
+        raise InputError(f"{folder}: holds no leaderboard entries (*.json files)")
     entries: list[LeaderboardEntry] = []
     seen: dict[str, Path] = {}
     for path in sorted(folder.glob("*.json")):

@@ -29,6 +29,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
+from ..extras import missing
 from ..simulate.params import GeneratorParams
 from .reused_arrays import ReusedArrays
 from .sources import STANDARD, GeneratedExamples, StoreExamples, stream_indices
@@ -37,10 +38,8 @@ from .transforms import PAPER_TRANSFORM, Transform
 try:
     import grain
     from absl import flags
-except ImportError as e:  # pragma: no cover - depends on the environment
-    raise ImportError(
-        "odms_data.loaders.grain_loader needs grain: pip install 'odms-data[jax]' (see README.md)"
-    ) from e
+except ModuleNotFoundError as e:
+    raise missing(e, "odms_data.loaders.grain_loader") from None
 
 if not flags.FLAGS.is_parsed():
     # grain 0.2.18's mp_prefetch reads an absl flag and fails (UnparsedFlagAccessError) in any

@@ -16,6 +16,7 @@ import ctypes
 import mmap
 import multiprocessing.util
 import os
+import signal
 import threading
 import weakref
 from multiprocessing.shared_memory import SharedMemory
@@ -194,6 +195,10 @@ class SharedBatch:
         return self.rebuild, (self.name, self.layout)
 
 
+def _exit_on_sigterm(signum: int, frame: object) -> None:
+    raise SystemExit  # status 0: PyTorch's main process takes any other as the worker failing
+
+
 class WorkerBlocks:
     """A DataLoader worker's blocks: `arena()` for the next batch, `send(arena, batch)` to hand it
     over. One per worker process (`worker_blocks`), so persistent workers reuse them every epoch."""
@@ -202,6 +207,10 @@ class WorkerBlocks:
         self.blocks: list[SharedMemory] = []
         # after the worker's result queue has flushed (its finaliser runs at priority -5)
         multiprocessing.util.Finalize(self, self.close, exitpriority=-10)
+        # The main process's exit terminates persistent workers (daemons) with SIGTERM, which left
+        # their blocks to their resource tracker, with a warning about leaked shared memory: as an
+        # exit instead, the finaliser above runs and removes them.
+        signal.signal(signal.SIGTERM, _exit_on_sigterm)
 
     def arena(self) -> Arena:
         free = next((b for b in self.blocks if not _header(_buffer(b))[BUSY]), None)

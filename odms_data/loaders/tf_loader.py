@@ -12,14 +12,13 @@ from __future__ import annotations
 
 from typing import Any
 
+from ..extras import missing
 from .numpy_loader import Batches, store_batches, stream_batches
 
 try:
     import tensorflow as tf
-except ImportError as e:  # pragma: no cover - depends on the environment
-    raise ImportError(
-        "odms_data.loaders.tf_loader needs TensorFlow: pip install 'odms-data[tf]' (see README.md)"
-    ) from e
+except ModuleNotFoundError as e:
+    raise missing(e, "odms_data.loaders.tf_loader") from None
 
 
 def dataset(batches: Batches) -> tf.data.Dataset:

@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
+from ..extras import missing
 from ..simulate.params import GeneratorParams
 from .shared_batches import Layout, received_arrays, worker_blocks
 from .sources import STANDARD, GeneratedExamples, StoreExamples, stream_indices
@@ -30,10 +31,8 @@ from .transforms import PAPER_TRANSFORM, Transform
 try:
     import torch
     from torch.utils.data import Dataset, IterableDataset, get_worker_info
-except ImportError as e:  # pragma: no cover - depends on the environment
-    raise ImportError(
-        "odms_data.loaders.torch_loader needs PyTorch: pip install 'odms-data[torch]' (see README.md)"
-    ) from e
+except ModuleNotFoundError as e:
+    raise missing(e, "odms_data.loaders.torch_loader") from None
 
 
 def to_tensors(arrays: dict[str, np.ndarray]) -> dict[str, torch.Tensor]:

@@ -33,16 +33,15 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
+from ..extras import missing
 from ..simulate.batch_render import frame_geometry
 from ..simulate.object_model import ExampleSpec
 from ..simulate.params import GeneratorParams
 
 try:
     import torch
-except ImportError as e:  # pragma: no cover - depends on the environment
-    raise ImportError(
-        "odms_data.loaders.torch_render needs PyTorch: pip install 'odms-data[torch]' (see README.md)"
-    ) from e
+except ModuleNotFoundError as e:
+    raise missing(e, "odms_data.loaders.torch_render") from None
 
 PIXEL_BUDGET = 1 << 26  # canvas pixels drawn at once (float32 shrink temporaries: a few GB at most)
 SIZE_STEP = 1.25  # canvases drawn together differ in size by less than this factor

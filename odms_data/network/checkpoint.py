@@ -24,6 +24,7 @@ class Checkpoint:
     cuda_rng: Any = None  # and the GPU's, when trained on one
     best: float | None = None  # the lowest validation error so far, and its iteration
     best_iteration: int | None = None
+    best_per_set: dict[str, tuple[float, int]] | None = None  # last.pt: {val split: (error, iteration)}
 
     def __post_init__(self) -> None:
         if isinstance(self.iteration, bool) or not isinstance(self.iteration, int) or self.iteration < 0:
@@ -32,6 +33,11 @@ class Checkpoint:
             raise InputError("checkpoint holds no weights (model is not a state dict)")
         if self.seconds is not None and not (math.isfinite(self.seconds) and self.seconds >= 0):
             raise InputError(f"checkpoint seconds {self.seconds!r} is not a time")
+        if self.best_per_set is not None and not (
+            isinstance(self.best_per_set, dict)
+            and all(isinstance(k, str) and isinstance(v, tuple | list) and len(v) == 2
+                    for k, v in self.best_per_set.items())):
+            raise InputError("checkpoint best_per_set is not a table of (error, iteration) by val split")
 
     def resume_state(self, where: str) -> tuple[dict[str, Any], Any, float]:
         """Adam's state, the CPU random state and the seconds spent, which a resumed run needs."""
@@ -43,7 +49,7 @@ class Checkpoint:
     def to_json(self) -> dict[str, Any]:
         """The dict torch saves, keys in order, those not set left out."""
         keys = ("iteration", "seconds", "model", "optimizer", "rng", "cuda_rng", "best", "best_iteration",
-                "percent_error")
+                "best_per_set", "percent_error")
         return {k: getattr(self, k) for k in keys if getattr(self, k) is not None}
 
     @classmethod

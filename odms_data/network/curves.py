@@ -3,13 +3,19 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from ..errors import MissingExtraError
+from ..extras import pyplot
 from ..outputs import replaced_via_partial
 from .run_folder import CURVES, PLOT, TRAIN, VAL, RunFolder, read_curves
 
 SMOOTH = 25  # training batches averaged into one point of the training curve
+PERCENT_NOTE = ("Percent error has no upper bound: a depth predicted 3 times too far is 200 % off, so an "
+                "untrained network's training error runs into the hundreds; it falls as the network learns "
+                "the scale.")
 
 
 def _moving_mean(y: np.ndarray, k: int) -> np.ndarray:
@@ -19,12 +25,21 @@ def _moving_mean(y: np.ndarray, k: int) -> np.ndarray:
 def draw(folder: RunFolder) -> Path | None:
     """Draw RUN/curves.png from RUN/curves.csv; None when matplotlib is not installed."""
     try:
-        import matplotlib
-    except ImportError:
+        plt = pyplot("curves.png")
+    except MissingExtraError:
         return None
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    fig = figure(folder)
+    path = folder.file(PLOT)
+    with replaced_via_partial(path) as partial:
+        fig.savefig(partial, format="png", dpi=110)
+    plt.close(fig)
+    return path
 
+
+def figure(folder: RunFolder) -> Any:
+    """The matplotlib figure of curves.png: validations as points (joined, so each is visible
+    even when there are two), the training batches as a smoothed line."""
+    plt = pyplot("curves.png")
     rows = read_curves(folder.file(CURVES))
     config = folder.config()
     sets = list(dict.fromkeys(r["set"] for r in rows))
@@ -44,17 +59,16 @@ def draw(folder: RunFolder) -> Path | None:
                         label=f"training batches ({k}-batch mean)")
             else:
                 mean = "validation: " + (stores[0] if len(stores) == 1 else "mean of the stores")
-                ax.plot(its, ys, linewidth=2 if name == VAL else 1, label=mean if name == VAL else name)
+                label = f"{mean} ({len(ys)} validations)" if name == VAL else name
+                ax.plot(its, ys, marker="o", markersize=3, linewidth=2 if name == VAL else 1, label=label)
         ax.set_yscale("log")
         ax.set_xlabel("iteration")
         ax.set_title(title)
         ax.grid(True, which="both", alpha=0.3)
     axes[1].legend(fontsize=8)
+    axes[1].set_ylabel("100 |predicted d1 - d1| / d1  (%)")
+    fig.text(0.005, 0.01, PERCENT_NOTE, fontsize=7, color="0.35")
     fig.suptitle(f"{config.model}{' + radial' if config.radial else ''}, n = {config.n_obs}, "
                  f"batch {config.batch_size}, lr {config.lr:g}, {config.preset} stream seed {config.seed}")
-    fig.tight_layout()
-    path = folder.file(PLOT)
-    with replaced_via_partial(path) as partial:
-        fig.savefig(partial, format="png", dpi=110)
-    plt.close(fig)
-    return path
+    fig.tight_layout(rect=(0, 0.05, 1, 1))
+    return fig

@@ -24,7 +24,7 @@ from ..store.reader import open_store
 from . import odn
 from .checkpoint import Checkpoint
 from .odn import ODN
-from .run_folder import BEST, LAST, RunFolder, TrainConfig
+from .run_folder import BEST, LAST, PER_SET, RunFolder, TrainConfig
 from .variants import Variant, variant
 
 EVAL_BATCH = 256  # examples a forward pass in evaluation
@@ -75,11 +75,16 @@ def read_checkpoint(path: Path) -> Checkpoint:
     return Checkpoint.from_json(saved, str(path))
 
 
-def load_trained(folder: RunFolder, which: str, device: torch.device) -> tuple[ODN, TrainConfig, int]:
-    """The network of a run's `which` checkpoint ('best' or 'last') in eval mode, its config and
-    the iteration it was saved at."""
+def load_trained(
+    folder: RunFolder, which: str, device: torch.device, split: str = ""
+) -> tuple[ODN, TrainConfig, int]:
+    """The network of a run's `which` checkpoint ('best', 'last', or 'per-set': the best on the
+    validation set of `split`'s domain) in eval mode, its config and the iteration it was saved at."""
     config = folder.config()
-    path = folder.file({"best": BEST, "last": LAST}[which])
+    if which == PER_SET:
+        path = folder.per_set_checkpoint(split)
+    else:
+        path = folder.file({"best": BEST, "last": LAST}[which])
     if not path.is_file():
         raise InputError(f"{folder.path}: has no {which} checkpoint yet ({path.name}); train it first "
                          "(a run writes one at each validation)")
@@ -117,15 +122,23 @@ def predict(
     folder: RunFolder, stores: dict[str, Path], output: str | Path, *, which: str = "best", workers: int = 0,
     device: str | None = None, overwrite: bool = False,
     progress: Callable[[str, int, int], None] = lambda split, done, total: None,
-) -> tuple[int, TrainConfig, int]:
+) -> tuple[int, TrainConfig, dict[str, int]]:
     """Write the predictions file (schemas/PREDICTIONS.md) of the run's `which` checkpoint for every
-    example of `stores` ({split: path}); returns (rows, the run's config, the checkpoint's iteration)."""
+    example of `stores` ({split: path}); returns (rows, the run's config, {split: the iteration of
+    the checkpoint that predicted it})."""
     check_replaceable(output, overwrite, option="-o", suffixes=(".csv",))  # before the work, and when written
     dev = pick_device(device)
-    model, config, iteration = load_trained(folder, which, dev)
+    order = sorted(stores, key=split_order)
+    # every checkpoint is loaded before the work, so that a missing one shows at once
+    loaded = {split: load_trained(folder, which, dev, split) for split in order} if which == PER_SET else {}
+    model, config, iteration = loaded[order[0]] if loaded else load_trained(folder, which, dev)
     rows: list[tuple[str, str, float]] = []
-    for split in sorted(stores, key=split_order):
+    iterations = {}
+    for split in order:
+        if loaded:
+            model, config, iteration = loaded[split]
         got, ids, d1 = predict_store(model, config, str(stores[split]), dev, workers, progress)
         rows += zip([got] * len(ids), ids, d1.tolist(), strict=True)
+        iterations[split] = iteration
     write_predictions(output, rows, overwrite=overwrite)
-    return len(rows), config, iteration
+    return len(rows), config, iterations

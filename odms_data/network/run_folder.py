@@ -3,6 +3,7 @@
     RUN/config.json   the TrainConfig, and the software that wrote it
     RUN/last.pt       the latest checkpoint: what a resumed run continues from
     RUN/best.pt       the weights that did best on the validation stores so far
+    RUN/best-SPLIT.pt the weights that did best on the validation store of split SPLIT so far
     RUN/curves.csv    one row per training iteration and per validation store and validation
     RUN/curves.png    the curves, drawn when the run completes
 
@@ -34,6 +35,7 @@ from .variants import variant
 CONFIG, LAST, BEST, CURVES, PLOT = "config.json", "last.pt", "best.pt", "curves.csv", "curves.png"
 CURVE_COLUMNS = ("iteration", "seconds", "set", "loss", "percent_error")
 TRAIN, VAL = "train", "val"  # curve sets besides each validation store's split
+PER_SET = "per-set"  # predict's checkpoint choice: each set's own best (the authors' protocol)
 AddRow = Callable[[int, float, str, float, float], None]  # (iteration, seconds, set, loss, percent error)
 
 
@@ -92,6 +94,18 @@ class TrainConfig:
         return [f"{k} {theirs[k]!r} here, {mine[k]!r} asked" for k in mine if mine[k] != theirs[k]]
 
 
+def best_of(split: str) -> str:
+    """The file of the best checkpoint on validation split `split` (a store's split name, which
+    the format confines to letters, digits and . _ -)."""
+    return f"best-{split}.pt"
+
+
+def domain_of(split: str) -> str:
+    """What a val and a test split share: robot-val and robot-test are both robot."""
+    name, sep, family = split.rpartition("-")
+    return name if sep and family in ("val", "test") else split
+
+
 def _splits_of_seed(seed: int) -> list[str]:
     manifests = (load_manifest(name) for name in split_names())
     return [m.name for m in manifests if m.generator and m.generator.get("seed") == seed]
@@ -114,6 +128,19 @@ class RunFolder:
 
     def file(self, name: str) -> Path:
         return self.path / name
+
+    def per_set_checkpoint(self, split: str) -> Path:
+        """The checkpoint that predicts split `split` under the authors' protocol: the best on the
+        validation set of its own domain (robot-val's for robot-test); InputError when the run
+        validated on none or on several."""
+        sets = sorted(p.name[len("best-"):-len(".pt")] for p in self.path.glob(best_of("*")))
+        mine = [s for s in sets if domain_of(s) == domain_of(split)]
+        if len(mine) != 1:
+            what = "no validation set" if not mine else f"several validation sets ({', '.join(mine)})"
+            raise InputError(f"{self.path}: --checkpoint {PER_SET} needs the best checkpoint of {split}'s "
+                             f"own validation set, and the run has {what} of that domain; its per-set "
+                             f"checkpoints: {', '.join(sets) or 'none (train again to write them)'}")
+        return self.file(best_of(mine[0]))
 
     def is_run(self) -> bool:
         """Whether the folder holds a run odms-data wrote: its config.json, a regular file, names
@@ -158,6 +185,8 @@ class RunFolder:
         self.path.mkdir(parents=True, exist_ok=True)
         for name in (LAST, BEST, CURVES, PLOT):
             self.file(name).unlink(missing_ok=True)
+        for path in self.path.glob(best_of("*")):
+            path.unlink()
         text = json.dumps({"config": config.to_json(), "odms_data": __version__}, indent=2) + "\n"
         with replaced_via_partial(self.file(CONFIG)) as partial:
             partial.write_text(text, encoding="utf-8")

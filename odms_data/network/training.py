@@ -4,7 +4,8 @@ As the paper (section 4) and the authors' released demo train it: Adam with lear
 batches of 512 freshly generated examples, an L1 loss between the output and the variant's label
 (loaders/targets.py), 5,000 iterations. Every `val_every` iterations (the paper: 10) and at the
 last, the network is evaluated on the validation stores; `best.pt` keeps the weights whose mean
-of the stores' mean percent errors is lowest, `last.pt` what a resumed run needs (weights, Adam's
+of the stores' mean percent errors is lowest, `best-SPLIT.pt` those lowest on each store (the
+authors picked a checkpoint per set so), `last.pt` what a resumed run needs (weights, Adam's
 state, the random state, the iteration). The stream's batch b depends only on (preset, seed,
 n_obs, batch size, b), so a run resumed from last.pt sees exactly the batches it would have seen.
 """
@@ -14,7 +15,7 @@ from __future__ import annotations
 import io
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -31,7 +32,7 @@ from . import odn
 from .checkpoint import Checkpoint
 from .odn import ODN
 from .prediction import Batch, outputs_and_depths, pick_device, read_checkpoint, store_batches, to_device
-from .run_folder import BEST, LAST, RUN_KIND, TRAIN, VAL, AddRow, RunFolder, TrainConfig
+from .run_folder import BEST, LAST, RUN_KIND, TRAIN, VAL, AddRow, RunFolder, TrainConfig, best_of
 from .variants import Variant, variant
 
 
@@ -51,6 +52,11 @@ class Status:
     best: float | None = None
     best_iteration: int | None = None
     checkpoint: int = 0  # the iteration of last.pt, where a rerun resumes
+    val_every: int = 1
+    first_seconds: float = 0.0  # this session's first iteration, which includes the loader's start
+    val_seconds: float = 0.0  # this session's time in validation (and checkpoints)
+    validations: int = 0  # ... over this many
+    best_per_set: dict[str, tuple[float, int]] = field(default_factory=dict)  # split: (error, iteration)
 
     @property
     def iterations_per_s(self) -> float:
@@ -59,6 +65,19 @@ class Status:
     @property
     def examples_per_s(self) -> float:
         return self.iterations_per_s * self.batch_size
+
+    @property
+    def seconds_left(self) -> float | None:
+        """Wall time to the end: the iterations left at the rate of this session's after its first,
+        and the validations left at their mean time; None until both were measured."""
+        steps = self.iteration - self.started_at - 1
+        if steps < 1 or not self.validations:
+            return None
+        per_step = max(0.0, self.seconds - self.first_seconds - self.val_seconds) / steps
+        last = self.iterations % self.val_every != 0 and self.iteration < self.iterations  # validated too
+        validations_left = self.iterations // self.val_every - self.iteration // self.val_every + last
+        per_validation = self.val_seconds / self.validations
+        return (self.iterations - self.iteration) * per_step + validations_left * per_validation
 
 
 def stream_params(config: TrainConfig) -> GeneratorParams:
@@ -132,11 +151,12 @@ def train(
 def _train(path: str | Path, config: TrainConfig, workers: int, device: str | None, overwrite: bool,
            report: Callable[[Status], None]) -> Status:
     folder, v, dev = RunFolder(path), variant(config.model), pick_device(device)
-    status = Status(0, config.iterations, config.batch_size, 0, 0.0, str(dev))
+    status = Status(0, config.iterations, config.batch_size, 0, 0.0, str(dev), val_every=config.val_every)
     saved = read_checkpoint(folder.file(LAST)) if folder.check(config, overwrite) else None
     if saved:
         status.iteration = status.started_at = status.checkpoint = saved.iteration
         status.best, status.best_iteration = saved.best, saved.best_iteration
+        status.best_per_set = dict(saved.best_per_set or {})
     if status.iteration >= config.iterations:
         return status
     validation = Validation(config, dev, workers)  # reads the stores: their problems show before any write
@@ -164,9 +184,15 @@ def _train(path: str | Path, config: TrainConfig, workers: int, device: str | No
         for it, batch in enumerate(loader, status.iteration + 1):
             _step(model, optimizer, v, to_device(batch, dev), status)
             status.iteration, status.seconds = it, time.perf_counter() - start
+            if it == status.started_at + 1:
+                status.first_seconds = status.seconds
             add(it, spent + status.seconds, TRAIN, status.loss, status.train_error)
             if it % config.val_every == 0 or it == config.iterations:
                 _validate(folder, model, optimizer, validation, status, add, spent + status.seconds, dev)
+                validated = time.perf_counter() - start
+                status.val_seconds += validated - status.seconds
+                status.validations += 1
+                status.seconds = validated
             report(status)
     return status
 
@@ -192,9 +218,14 @@ def _validate(folder: RunFolder, model: ODN, optimizer: torch.optim.Optimizer, v
     if status.best is None or status.val < status.best:
         status.best, status.best_iteration = status.val, status.iteration
         _save(folder.file(BEST), Checkpoint(status.iteration, model.state_dict(), percent_error=status.val))
+    for split, (_, error) in results.items():
+        if split not in status.best_per_set or error < status.best_per_set[split][0]:
+            status.best_per_set[split] = (error, status.iteration)
+            _save(folder.file(best_of(split)), Checkpoint(status.iteration, model.state_dict(),
+                                                          percent_error=error))
     _save(folder.file(LAST), Checkpoint(
         status.iteration, model.state_dict(), seconds=seconds, optimizer=optimizer.state_dict(),
         rng=torch.get_rng_state(), cuda_rng=torch.cuda.get_rng_state(dev) if dev.type == "cuda" else None,
-        best=status.best, best_iteration=status.best_iteration,
+        best=status.best, best_iteration=status.best_iteration, best_per_set=dict(status.best_per_set),
     ))
     status.checkpoint = status.iteration

@@ -20,6 +20,7 @@ from typing import Any
 
 from .._version import __version__
 from ..errors import InputError, StoreError
+from ..extras import optional
 from ..parallel import ordered_map
 from .shard_task import ShardResult, ShardTask, run
 
@@ -42,10 +43,7 @@ def _environment() -> dict[str, Any]:
 
 def connect(address: str):
     """A `distributed.Client` for the scheduler at `address`, with at least one worker."""
-    try:
-        from distributed import Client
-    except ImportError:
-        raise InputError("a Dask scheduler needs Dask: pip install 'odms-data[dask]'") from None
+    Client = optional("distributed", "odms-data generate --scheduler").Client
     try:
         client = Client(address, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
     except (OSError, TimeoutError, ValueError) as e:

@@ -3,6 +3,7 @@ can offer them without loading the renderer."""
 
 from __future__ import annotations
 
+import difflib
 import math
 from dataclasses import asdict, dataclass, fields, replace
 from typing import Any
@@ -105,15 +106,25 @@ class GeneratorParams:
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> GeneratorParams:
-        known = {f.name for f in fields(cls)}
-        unknown = sorted(set(d) - known)
+        unknown = sorted(set(d) - set(parameter_names()))
         if unknown:
-            raise InputError(f"generator parameters: unknown name(s) {', '.join(unknown)}")
+            names = [n + (f" (did you mean {c}?)" if (c := closest_parameter(n)) else "") for n in unknown]
+            raise InputError(f"generator parameters: unknown name(s) {', '.join(names)}")
         values: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in d.items()}
         try:
             return cls(**values)
         except TypeError as e:
             raise InputError(f"generator parameters: a value has the wrong type ({e})") from None
+
+
+def parameter_names() -> list[str]:
+    return [f.name for f in fields(GeneratorParams)]
+
+
+def closest_parameter(name: str) -> str | None:
+    """The generator parameter a mistyped `name` most likely means (dmax: d_max), if any."""
+    close = difflib.get_close_matches(name, parameter_names(), n=1, cutoff=0.6)
+    return close[0] if close else None
 
 
 PRESETS: dict[str, GeneratorParams] = {

@@ -16,11 +16,33 @@ from .reader import Example
 THUMB_WIDTH = 240
 CAPTION = 30
 COLUMNS = 5
+CROP_MARGIN = 0.25  # of the object's extent, on each side, kept around it by --crop
+CROP_LEAST = 16  # px: the least side of a crop
 
 
-def contact_sheet(example: Example, columns: int = COLUMNS) -> Image.Image:
-    """A grid image of the example's masks, each captioned with its index, z and depth."""
-    n, H, W = example.masks.shape
+def object_box(masks: np.ndarray) -> tuple[int, int, int, int] | None:
+    """(top, bottom, left, right), bottom and right excluded, of the pixels set in any of the masks,
+    with a margin, at least CROP_LEAST a side, inside the image; None when every mask is empty."""
+    _, H, W = masks.shape
+    rows, cols = np.flatnonzero(masks.any(axis=(0, 2))), np.flatnonzero(masks.any(axis=(0, 1)))
+    if not rows.size:
+        return None
+    box = []
+    for lo, hi, size in ((rows[0], rows[-1] + 1, H), (cols[0], cols[-1] + 1, W)):
+        pad = max(int(CROP_MARGIN * (hi - lo)), (CROP_LEAST - (hi - lo) + 1) // 2, 0)
+        box += [max(0, lo - pad), min(size, hi + pad)]
+    return box[0], box[1], box[2], box[3]
+
+
+def contact_sheet(example: Example, columns: int = COLUMNS, crop: bool = False) -> Image.Image:
+    """A grid image of the example's masks, each captioned with its index, z and depth; `crop`:
+    every mask cut to the box around the object in all of them (a 10-pixel object fills the
+    thumbnail, pixels drawn as squares)."""
+    masks = example.masks
+    box = object_box(masks) if crop else None
+    if box is not None:
+        masks = masks[:, box[0]:box[1], box[2]:box[3]]
+    n, H, W = masks.shape
     tw = THUMB_WIDTH
     th = max(1, round(H * tw / W))
     cols = min(columns, n)
@@ -29,12 +51,16 @@ def contact_sheet(example: Example, columns: int = COLUMNS) -> Image.Image:
     sheet = Image.new("L", (cols * (tw + 4) + 4, title + rows * (th + CAPTION) + 4), 64)
     draw = ImageDraw.Draw(sheet)
     d1 = "unlabelled" if math.isnan(example.d1) else f"d1 = {example.d1:.4f} m"
-    draw.text((6, 6), f"{example.example_id}   n = {n}   {d1}", fill=255)
+    where = ""
+    if crop:
+        where = (f"   rows {box[0]}..{box[1] - 1}, columns {box[2]}..{box[3] - 1}" if box
+                 else "   (every mask is empty: nothing to crop to)")
+    draw.text((6, 6), f"{example.example_id}   n = {n}   {d1}{where}", fill=255)
     for i in range(n):
         r, c = divmod(i, cols)
         x, y = 4 + c * (tw + 4), title + r * (th + CAPTION)
-        mask = Image.fromarray(example.masks[i].astype(np.uint8) * 255)
-        thumb = mask.resize((tw, th), Image.Resampling.BILINEAR)
+        mask = Image.fromarray(masks[i].astype(np.uint8) * 255)
+        thumb = mask.resize((tw, th), Image.Resampling.NEAREST if W < tw else Image.Resampling.BILINEAR)
         sheet.paste(thumb, (x, y))
         depth = "depth ?" if math.isnan(example.depth[i]) else f"depth {example.depth[i]:.3f} m"
         draw.text((x + 2, y + th + 4), f"#{i + 1}  z {example.z[i]:.4f} m  {depth}", fill=255)

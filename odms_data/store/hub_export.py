@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..extras import optional
 from ..outputs import Kind, atomic_folder
 from .digest import check_recorded_digest
 from .hub_metadata import croissant, dataset_card, hub_split, licence_of
@@ -135,10 +136,7 @@ def export_hub(
 ) -> list[SplitExport]:
     """Write `stores` (one split each) to `out_dir` as Parquet shards with a dataset card and
     Croissant metadata; returns what each store became."""
-    try:
-        import pyarrow  # noqa: F401
-    except ImportError:
-        raise InputError("export needs pyarrow: pip install 'odms-data[hub]'") from None
+    optional("pyarrow", "odms-data export")
     if examples_per_file < 1:
         raise InputError(f"examples per file must be at least 1, got {examples_per_file}")
     target = Path(out_dir)

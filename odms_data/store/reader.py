@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import difflib
+import re
 from dataclasses import dataclass
 from functools import cached_property
 from typing import TypeVar
@@ -28,6 +29,9 @@ from .masks import packed_width, unpack
 from .shard_reader import ShardReader
 
 T = TypeVar("T")
+
+
+_NUMBERED = re.compile(r"(.*)/(\d+)")  # an example id ending in its number: split/000042
 
 
 @dataclass
@@ -167,11 +171,26 @@ class Store:
         try:
             return self._id_to_index[example_id]
         except KeyError:
-            qualified = f"{self.attrs.split}/{example_id}"  # a bare number or name, without the split
-            close = ([qualified] if qualified in self._id_to_index
-                     else difflib.get_close_matches(example_id, self.example_ids, n=3))
+            close = self._closest_ids(example_id)
             hint = f"; did you mean {', '.join(close)}?" if close else ""
             raise InputError(f"{self.path}: no example '{example_id}'{hint}") from None
+
+    def _closest_ids(self, key: str) -> list[str]:
+        """The ids a user who typed `key` most likely meant: a bare name without the split; the
+        same number with other zero padding (`sim-val/042`, `42`); row `key` of the store; else
+        the ids most alike."""
+        qualified = f"{self.attrs.split}/{key}"
+        if qualified in self._id_to_index:
+            return [qualified]
+        number = _NUMBERED.fullmatch(key if "/" in key else qualified)
+        close: list[str] = []
+        if number:
+            prefix, n = number[1], int(number[2])
+            close = [i for i in self.example_ids if (m := _NUMBERED.fullmatch(i)) and m[1] == prefix
+                     and int(m[2]) == n]
+            if key.isdigit() and n < self.n_examples and self.example_ids[n] not in close:
+                close.append(self.example_ids[n])  # a row index given as the example
+        return close or difflib.get_close_matches(key, self.example_ids, n=3)
 
     def frames_of(self, i: int) -> np.ndarray:
         row = self.frame_index[i]

@@ -44,7 +44,7 @@ def test_train_predict_score(tmp_path, val_store):
              "--iterations", "3", "--batch-size", "2", "--val-every", "2", "--workers", "1", "--seed", "4")
     assert r.returncode == 0, r.stderr
     assert "it/s" in r.stderr and "ex/s" in r.stderr and "on cpu" in r.stderr
-    files = ["best.pt", "config.json", "curves.csv", "curves.png", "last.pt"]
+    files = ["best-tiny-val.pt", "best.pt", "config.json", "curves.csv", "curves.png", "last.pt"]
     assert sorted(p.name for p in run.iterdir()) == files
     c = json.loads((run / "config.json").read_text())["config"]
     assert (c["model"], c["radial"], c["lr"], c["val"]) == ("odn-l", True, 0.001, [str(val_store)])
@@ -146,3 +146,42 @@ def test_bad_input(tmp_path, val_store):
     (run / "best.pt").write_bytes(b"not a checkpoint")
     _fails([*predict, str(run), "-o", str(other)], "best.pt: not a readable")
     assert not other.exists()
+
+
+def test_per_set_checkpoints_predict_their_own_domain(tmp_path, val_store):
+    """Each validation set keeps its own best checkpoint, and --checkpoint per-set predicts each
+    store with the one of its domain (the authors' choice for Table 1)."""
+    other = tmp_path / "other-val.zarr"
+    generate(str(other), 12, SMALL, seed=12, split="other-val", workers=1)
+    run = tmp_path / "run"
+    r = CliRunner().invoke(main, ["train", "--model", "odn-d", "-o", str(run), "--val", str(val_store),
+                                  "--val", str(other), "--iterations", "5", "--batch-size", "2",
+                                  "--val-every", "1", "--workers", "0", "--seed", "6"])
+    assert r.exit_code == 0, r.output
+    curve = rows(run / "curves.csv")
+    scores = {}
+    for split in ("tiny-val", "other-val"):
+        errors = {int(c["iteration"]): float(c["percent_error"]) for c in curve if c["set"] == split}
+        saved = torch.load(run / f"best-{split}.pt", weights_only=True)
+        assert saved["iteration"] == min(errors, key=errors.__getitem__)
+        scores[split] = saved["percent_error"]
+        assert scores[split] == pytest.approx(min(errors.values()), rel=1e-5)
+    test = tmp_path / "tiny-test.zarr"  # the tiny domain's test set: predicted by best-tiny-val.pt
+    generate(str(test), 12, SMALL, seed=11, split="tiny-test", workers=1)  # tiny-val's examples
+
+    preds = tmp_path / "p.csv"
+    r = CliRunner().invoke(main, ["predict", str(run), "--data", str(val_store), "--data", str(other),
+                                  "--data", str(test), "--checkpoint", "per-set", "-o", str(preds),
+                                  "--workers", "0"])
+    assert r.exit_code == 0, r.output
+    r = CliRunner().invoke(main, ["score", str(preds), "--data", str(val_store), "--data", str(other),
+                                  "--data", str(test), "--json"])
+    assert r.exit_code == 0, r.output
+    got = {s["split"]: s["mean_percent_error"] for s in json.loads(r.stdout)["splits"]}
+    assert got == pytest.approx({**scores, "tiny-test": scores["tiny-val"]}, rel=1e-5)
+
+    lone = tmp_path / "lone-test.zarr"
+    generate(str(lone), 2, SMALL, seed=13, split="lone-test", workers=1)
+    _fails(["predict", str(run), "--data", str(lone), "--checkpoint", "per-set",
+            "-o", str(tmp_path / "q.csv")], "lone-test's own validation set", "other-val, tiny-val")
+    assert not (tmp_path / "q.csv").exists()

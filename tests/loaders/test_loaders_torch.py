@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 import torch
@@ -113,3 +117,31 @@ def test_stream_dataset_resumes_at_a_batch():
     assert all(torch.equal(x[k], y[k]) for x, y in zip(whole[2:], later, strict=True) for k in x)
     with pytest.raises(InputError, match="start must be a batch of the epoch, 0..4; got 5"):
         StreamDataset(4, 5, start=5)
+
+
+PERSISTENT = """
+from torch.utils.data import DataLoader
+from odms_data.loaders import Transform, shared_batches
+from odms_data.loaders.torch_loader import StreamDataset
+from odms_data.simulate.params import GeneratorParams
+if __name__ == "__main__":
+    ds = StreamDataset(4, 3, params=GeneratorParams(image_size=(60, 80), sizes=(20,)), seed=1,
+                       transform=Transform(size=(32, 32)))
+    loader = DataLoader(ds, batch_size=None, num_workers=2, persistent_workers=True)
+    for epoch in range(2):
+        ds.set_epoch(epoch)
+        assert len(list(loader)) == 3
+    print(" ".join(shared_batches._RECEIVED))  # the workers' blocks, left for the exit to remove
+"""
+
+
+def test_persistent_workers_leak_nothing_at_exit(tmp_path):
+    """The program ends with persistent workers alive: their blocks go, without a resource_tracker
+    warning about leaked shared memory."""
+    script = tmp_path / "persistent.py"
+    script.write_text(PERSISTENT)
+    r = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert "resource_tracker" not in r.stderr and "leaked" not in r.stderr, r.stderr
+    names = r.stdout.split()
+    assert names and not [n for n in names if Path("/dev/shm", n).exists()]

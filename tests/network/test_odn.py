@@ -67,3 +67,25 @@ def test_bad_variant_or_observations():
         variant("odn-x")
     with pytest.raises(InputError, match="at least 2 observations"):
         build(variant("odn-l"), 1, radial=False)
+
+
+def test_curves_show_each_validation_and_explain_large_percent_errors(tmp_path):
+    """Two validations are two visible points, not a bare line, and the figure says why a training
+    error runs into the hundreds of percent."""
+    from odms_data.network.curves import draw, figure
+    from odms_data.network.run_folder import CURVES, RunFolder, TrainConfig
+
+    folder = RunFolder(tmp_path / "run")
+    folder.create(TrainConfig(val=("v.zarr",), val_every=2, iterations=4), overwrite=False)
+    rows = ["iteration,seconds,set,loss,percent_error"]
+    rows += [f"{i},{i},train,{1 / i},{300 / i}" for i in range(1, 5)]
+    rows += [f"{i},{i},{name},{0.5 / i},{40 / i}" for i in (2, 4) for name in ("tiny-val", "val")]
+    folder.file(CURVES).write_text("\n".join(rows) + "\n")
+    fig = figure(folder)
+    validation = [line for ax in fig.axes for line in ax.get_lines() if "validation" in line.get_label()]
+    assert len(validation) == 2 and all(len(line.get_xdata()) == 2 for line in validation)
+    assert all(line.get_marker() not in ("None", "", None) for line in validation)
+    note = " ".join(t.get_text() for t in fig.texts)
+    assert "hundreds" in note and "200 %" in note
+    assert "%" in fig.axes[1].get_ylabel()
+    assert draw(folder).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -1,0 +1,60 @@
+"""Ctrl-C at any moment of a command that uses workers prints one line: the terminal's SIGINT, sent
+to the whole process group (the command, its fork server and workers), of a real `generate`."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import psutil
+import pytest
+
+INTERRUPTED = "odms-data: interrupted (SIGINT); nothing was left half-written"
+
+
+def _wait_for(condition: Callable[[], bool], p: subprocess.Popen) -> None:
+    while not condition():
+        assert p.poll() is None, "the command ended before the moment to interrupt it"
+        time.sleep(0.005)
+
+
+def _fork_server(p: subprocess.Popen, loading_kernels: bool) -> bool:
+    """Whether the command's fork server has started (and, with `loading_kernels`, is loading Numba)."""
+    try:
+        for child in psutil.Process(p.pid).children():
+            if "forkserver" in " ".join(child.cmdline()):
+                return not loading_kernels or any("llvmlite" in m.path for m in child.memory_maps())
+    except psutil.Error:  # a process that has just ended
+        pass
+    return False
+
+
+@pytest.mark.parametrize("moment", ["store begun", "fork server starts", "kernels load", "mid-run"])
+def test_ctrl_c_prints_one_line(tmp_path, moment):
+    out = tmp_path / "out.zarr"
+    p = subprocess.Popen(
+        [str(Path(sys.executable).with_name("odms-data")), "generate", "-n", "3000", "--workers", "2",
+         "--examples-per-shard", "20", "-o", str(out)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+        # Ctrl-C's default disposition, as in a terminal, also where these tests run in the background
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    if moment == "store begun":  # before any worker: the store's partial folder is there
+        _wait_for(lambda: any(tmp_path.iterdir()), p)
+    elif moment == "fork server starts":
+        _wait_for(lambda: _fork_server(p, False), p)
+    elif moment == "kernels load":  # the fork server imports the renderer and loads its kernels
+        _wait_for(lambda: _fork_server(p, True), p)
+    else:  # examples are coming back from the workers
+        assert p.stderr is not None
+        first = p.stderr.readline()
+        assert first.startswith("generating "), first
+    os.killpg(p.pid, signal.SIGINT)
+    _, err = p.communicate(timeout=120)
+    lines = [line for line in err.splitlines() if not line.startswith("generating ")]
+    assert p.returncode == 130 and lines == [INTERRUPTED], err
+    assert not any(tmp_path.iterdir())
