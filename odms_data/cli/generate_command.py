@@ -33,6 +33,16 @@ def _parse_param(values: tuple[str, ...]) -> dict:
     return out
 
 
+def _split_recipe(split_name: str, given: list[str]):
+    """The named split's recipe; InputError when options that it fixes were `given` too."""
+    from ..simulate.generate_store import split_recipe
+
+    recipe = split_recipe(split_name)
+    if given:
+        raise InputError(f"--split {split_name} fixes its parameters; drop {', '.join(given)}")
+    return recipe
+
+
 @click.command()
 @click.option("--split", "split_name", help="Generate a named split of splits/ and verify its digest.")
 @click.option("-n", "--count", type=click.IntRange(min=1), help="Number of examples.")
@@ -61,16 +71,6 @@ def _parse_param(values: tuple[str, ...]) -> dict:
               help="Run the shards on the Dask cluster of this scheduler (e.g. tcp://host:8786) "
                    "instead of local --workers; needs the dask extra. The output must be a path "
                    "every worker sees, or a URL such as s3://bucket/train.zarr.")
-def _split_recipe(split_name: str, given: list[str]):
-    """The named split's recipe; InputError when options that it fixes were `given` too."""
-    from ..simulate.generate_store import split_recipe
-
-    recipe = split_recipe(split_name)
-    if given:
-        raise InputError(f"--split {split_name} fixes its parameters; drop {', '.join(given)}")
-    return recipe
-
-
 def generate(split_name, count, preset, seed, n_obs, params, store_split, output, fmt, workers,
              examples_per_shard, overwrite, as_json, scheduler):
     """Generate simulated ODMS examples into a store.
