@@ -5,15 +5,14 @@ from __future__ import annotations
 import difflib
 from dataclasses import dataclass
 from functools import cached_property
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import numpy as np
 
 from ..errors import InputError, StoreError
 from .backends import Backend, open_backend
 from .format import (
-    EXAMPLE_ARRAYS,
-    FRAME_ARRAYS,
+    ARRAYS,
     StoreAttrs,
     d1_problems,
     decode_strings,
@@ -28,6 +27,7 @@ from .masks import packed_width, unpack
 from .shard_reader import ShardReader
 
 T = TypeVar("T")
+_CHECKED = {"example_id": "example_ids", "source": "sources"}  # the Store attributes of text arrays
 
 
 @dataclass
@@ -98,6 +98,12 @@ class Store:
     def raw(self, name: str) -> np.ndarray:
         """Array `name` as stored, unchecked (for `validate`, which reports every problem)."""
         return self._read(name)
+
+    def checked(self, name: str) -> Any:
+        """Array `name` after the format's rules for it (a text array as its strings); an array
+        the rules say nothing of, as stored."""
+        attribute = _CHECKED.get(name, name)
+        return getattr(self, attribute) if hasattr(type(self), attribute) else self._read(name)
 
     @cached_property
     def z(self) -> np.ndarray:
@@ -249,7 +255,7 @@ def open_store(path: str) -> Store:
             raise StoreError(
                 f"{path}: store is incomplete (an interrupted write?); re-run the command that made it"
             )
-        missing = sorted((set(FRAME_ARRAYS) | set(EXAMPLE_ARRAYS)) - backend.names())
+        missing = sorted(set(ARRAYS) - backend.names())
         if missing:
             raise StoreError(f"{path}: store lacks the array(s) {', '.join(missing)}")
         attrs = StoreAttrs.from_json(raw, str(path))

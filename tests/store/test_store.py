@@ -1,6 +1,7 @@
 """Stores: generation into Zarr and HDF5, determinism, conversion, validation of corruption."""
 
 import json
+import re
 import shutil
 from pathlib import Path
 
@@ -219,3 +220,16 @@ def test_failed_write_leaves_nothing(tmp_path, name):
 def test_unknown_example_id_names_close_matches(small_zarr):
     with pytest.raises(InputError, match="did you mean small/000012"):
         open_store(str(small_zarr)).example("small/00012")
+
+
+def test_format_md_documents_every_array_of_the_table_with_its_dtype_and_rows(small_zarr):
+    from odms_data.resources import resource_dir
+    from odms_data.store.format import ARRAYS
+
+    text = (resource_dir("schemas") / "FORMAT.md").read_text()
+    table = re.findall(r"^\| `(\w+)` \| \((\w)[^|]*\| (\w+) \|", text, re.M)  # name, F or E, dtype
+    documented = {name: (rows, dtype) for name, rows, dtype in table}
+    tabled = {a.name: ("F" if a.per == "frame" else "E", np.dtype(a.dtype).name) for a in ARRAYS.values()}
+    assert documented == tabled
+    with open_store(small_zarr) as s:
+        assert s.backend.names() == set(ARRAYS)
