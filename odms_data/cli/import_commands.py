@@ -5,7 +5,6 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from contextlib import AbstractContextManager
-from pathlib import Path
 
 import click
 
@@ -115,23 +114,23 @@ def odms(data_dir, out_dir, splits, fmt, overwrite, skip_bad, no_verify, workers
       odms-data import odms ODMS/data -o stores/
     """
     from ..importers.release import import_release
+    from ..store.format import store_path
 
     with _Bars() as bars:
         result = import_release(
             data_dir, out_dir, splits=list(splits) or None, fmt=fmt, overwrite=overwrite,
             progress=bars, skip_bad=skip_bad, verify=not no_verify, workers=workers,
         )
-    suffix = ".zarr" if fmt == "zarr" else ".h5"
     if as_json:
         echo_json({"stores": [
-            {"split": attrs.split, "path": str(Path(out_dir) / f"{name}{suffix}"),
+            {"split": attrs.split, "path": str(store_path(out_dir, name, fmt)),
              "examples": attrs.counts["examples"], "frames": attrs.counts["frames"],
              "oddities": len(attrs.oddities), "matches_manifest": attrs.split == name,
              "digest": attrs.digest, "skipped": _skipped(attrs.oddities)}
             for name, attrs in result.items()]})
         return
     for name, attrs in result.items():
-        path = Path(out_dir) / f"{name}{suffix}"
+        path = store_path(out_dir, name, fmt)
         verdict = (f"matches splits/{name}.json" if attrs.split == name
                    else f"differs from splits/{name}.json, stored as split {attrs.split}")
         click.echo(f"wrote {path}: {attrs.counts['examples']} examples, {attrs.counts['frames']} frames, "

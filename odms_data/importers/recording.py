@@ -18,7 +18,7 @@ import numpy as np
 
 from ..benchmark import protocol_windows
 from ..errors import InputError
-from ..store.format import StoreAttrs
+from ..store.format import StoreAttrs, store_path
 from .builder import BadFiles, build_store
 from .decoding import Workers
 from .mask_files import MaskFile, is_mask_file
@@ -179,7 +179,7 @@ def import_recording(
     if d1 is not None and not (math.isfinite(d1) and d1 > 0):
         raise InputError(f"d1 {d1} is not a positive distance")
     if out is None:
-        out = Path(mask_dir.resolve().name + (".h5" if fmt == "hdf5" else ".zarr"))
+        out = store_path(".", mask_dir.resolve().name, "hdf5" if fmt == "hdf5" else "zarr")
     out = Path(out)
     name = store_name(name, out, mask_dir.resolve().name, "recording")
     files, z, depth, skipped = read_positions(positions, mask_dir, skip_bad)

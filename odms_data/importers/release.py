@@ -25,7 +25,7 @@ import numpy as np
 
 from ..benchmark import OFFICIAL_SPLITS, ROBOT_FRAMES, ROBOT_N_OBS, ROBOT_WINDOWS, protocol_windows
 from ..errors import DigestMismatchError, InputError, OutputExistsError
-from ..store.format import StoreAttrs
+from ..store.format import StoreAttrs, store_path
 from ..store.manifests import check_against_manifest, load_manifest, split_names
 from .builder import BadFiles, build_store
 from .decoding import Workers
@@ -212,12 +212,11 @@ def import_release(
     if fmt not in ("zarr", "hdf5"):
         raise InputError(f"unknown store format '{fmt}'; use zarr or hdf5")
     scans = {name: scan_split(data_dir, name, skip_bad) for name in names}
-    suffix = ".zarr" if fmt == "zarr" else ".h5"
     out: dict[str, StoreAttrs] = {}
     with Workers(workers) as pool:
         for name in names:
             folders, skipped = scans[name]
-            path = out_dir / f"{name}{suffix}"
+            path = store_path(out_dir, name, fmt)
             while True:
                 plan = make_plan(name, folders, skipped)
                 total, done = len(plan.masks), 0

@@ -12,10 +12,9 @@ from pathlib import Path
 from typing import Any, Literal
 
 from ..errors import StoreError
+from .format import format_of_name
 
-FORMATS = ("zarr", "hdf5")
 Mode = Literal["r", "r+", "w"]  # read, update, create
-HDF5_SUFFIXES = (".h5", ".hdf5", ".hdf")
 HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
 ZSTD_LEVEL = 3
 GZIP_LEVEL = 1
@@ -39,7 +38,7 @@ def detect_format(path: str) -> str:
     if local.is_file():
         with open(local, "rb") as f:
             return "hdf5" if f.read(8) == HDF5_MAGIC else "zarr"
-    return "hdf5" if local.suffix.lower() in HDF5_SUFFIXES else "zarr"
+    return format_of_name(local) or "zarr"
 
 
 class Backend:
@@ -256,7 +255,7 @@ def open_backend(path: str, mode: Mode = "r", fmt: str | None = None) -> Backend
         if not local.exists():
             raise StoreError(f"{path}: no such store")
         if local.is_file() and fmt == "zarr":  # a file without the HDF5 signature
-            what = ("not an HDF5 file (it lacks the HDF5 signature)" if local.suffix.lower() in HDF5_SUFFIXES
+            what = ("not an HDF5 file (it lacks the HDF5 signature)" if format_of_name(local) == "hdf5"
                     else "not a store (an odms-data store is a Zarr folder or an HDF5 file)")
             raise StoreError(f"{path}: {what}")
         if local.is_dir() and not (local / "zarr.json").exists():

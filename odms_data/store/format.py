@@ -7,6 +7,7 @@ from collections import Counter
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from functools import cache
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -72,6 +73,21 @@ def arrays_per(per: str) -> list[Array]:
 def shape_of(a: Array, rows: int, sizes: dict[str, int]) -> tuple[int, ...]:
     """The shape of array `a` with `rows` rows, its named sizes taken from `sizes`."""
     return (rows, *(sizes[d] if isinstance(d, str) else d for d in a.trailing))
+
+
+# Each backend's file-name suffixes; the first is the one odms-data gives a store it names.
+SUFFIXES = {"zarr": (".zarr",), "hdf5": (".h5", ".hdf5", ".hdf")}
+
+
+def format_of_name(path: str | Path) -> str | None:
+    """The backend the name of `path` says ('zarr' or 'hdf5'), or None when its suffix says none."""
+    suffix = Path(path).suffix.lower()
+    return next((fmt for fmt, suffixes in SUFFIXES.items() if suffix in suffixes), None)
+
+
+def store_path(folder: str | Path, split: str, fmt: str) -> Path:
+    """Where odms-data puts the store of `split` in `folder` in backend `fmt`."""
+    return Path(folder) / f"{split}{SUFFIXES[fmt][0]}"
 
 
 @dataclass

@@ -22,8 +22,8 @@ import numpy as np
 from ..errors import InputError, StoreError, StoreExistsError
 from ..interrupts import uninterrupted
 from ..outputs import DISK_FULL, fsync_tree, move_into_place, output_lock, remove, write_error
-from .backends import HDF5_MAGIC, HDF5_SUFFIXES, Backend, detect_format, is_url, open_backend
-from .format import ARRAYS, ATTRS_KEY, StoreAttrs, arrays_per, encode_strings, shape_of
+from .backends import HDF5_MAGIC, Backend, detect_format, is_url, open_backend
+from .format import ARRAYS, ATTRS_KEY, StoreAttrs, arrays_per, encode_strings, format_of_name, shape_of
 from .masks import FrameStats, packed_width
 from .shard_writer import ShardChunks
 
@@ -109,11 +109,11 @@ def _check_suffix(path: str, fmt: str) -> None:
         if fmt == "hdf5":
             raise InputError(f"{path}: HDF5 stores are local files; write a Zarr store to a URL")
         return
-    suffix = Path(path).suffix.lower()
-    if fmt == "zarr" and suffix in HDF5_SUFFIXES:
+    suffix, named = Path(path).suffix.lower(), format_of_name(path)
+    if fmt == "zarr" and named == "hdf5":
         raise InputError(f"{path}: the name says HDF5 ({suffix}) but the format asked for is zarr; "
                          "name it *.zarr or ask for --format hdf5")
-    if fmt == "hdf5" and suffix == ".zarr":
+    if fmt == "hdf5" and named == "zarr":
         raise InputError(f"{path}: the name says Zarr (.zarr) but the format asked for is hdf5; "
                          "name it *.h5 or ask for --format zarr")
 

@@ -233,3 +233,20 @@ def test_format_md_documents_every_array_of_the_table_with_its_dtype_and_rows(sm
     assert documented == tabled
     with open_store(small_zarr) as s:
         assert s.backend.names() == set(ARRAYS)
+
+
+def test_every_store_suffix_is_written_opened_and_found_as_its_backend(tmp_path):
+    from _stores import make_store
+
+    from odms_data.evaluation.ground_truth import find_stores
+    from odms_data.store.format import SUFFIXES, store_path
+
+    examples = [{"z": [1.0, 1.5], "areas": [36, 25], "d1": 0.5}]
+    for fmt, suffixes in SUFFIXES.items():
+        for suffix in suffixes:
+            folder = tmp_path / suffix.lstrip(".")
+            path = Path(make_store(folder / f"normal-val{suffix}", "normal-val", examples))
+            with open_store(str(path)) as s:
+                assert s.format == fmt
+            assert find_stores([folder]) == {"normal-val": path}  # .hdf too, as the backends read it
+        assert store_path(tmp_path, "normal-val", fmt) == tmp_path / f"normal-val{suffixes[0]}"
