@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ..store.digest import StoreDigest, example_digest
+from ..store.digest import content_digest
 from ..store.format import StoreAttrs
 from ..store.writer import Layout, StoreWriter
 from .decoding import FrameTask, Workers
@@ -98,12 +98,7 @@ def build_store(
             raise BadFiles(failures)
 
         def digest_with(ids: list[str]) -> str:
-            digest = StoreDigest(H, W, E)
-            digest.update(
-                example_digest(ids[e], plan.sources[e], plan.d1[e], fd[row[row >= 0]].tobytes())
-                for e, row in enumerate(plan.frame_index)
-            )
-            return digest.hexdigest()
+            return content_digest(H, W, plan.frame_index, fd, ids, plan.sources, plan.d1)
 
         attrs = StoreAttrs(
             split=plan.split, domain=plan.domain, image_size=(H, W),
