@@ -17,9 +17,7 @@ import zlib
 import numpy as np
 
 from .backends import GZIP_LEVEL, ZSTD_LEVEL, storage_options
-from .shard_layout import ShardLayout
-
-MISSING = 2**64 - 1  # offset and length of an absent inner chunk
+from .shard_layout import ShardLayout, encode_index
 
 
 class ShardChunks:
@@ -72,13 +70,5 @@ class ShardChunks:
 
 
 def shard_bytes(chunks: list[bytes], per_shard: int) -> bytes:
-    """A shard holding `chunks` as its first inner chunks (the rest absent): the chunks, then the
-    index of (offset, length) pairs as little-endian uint64 and its crc32c, little-endian."""
-    import google_crc32c
-
-    index = np.full((per_shard, 2), MISSING, "<u8")
-    lengths = np.array([len(c) for c in chunks], np.uint64)
-    index[: len(chunks), 1] = lengths
-    index[: len(chunks), 0] = np.cumsum(lengths) - lengths
-    raw = index.tobytes()
-    return b"".join([*chunks, raw, google_crc32c.value(raw).to_bytes(4, "little")])
+    """A shard holding `chunks` as its first inner chunks (the rest absent), then its index."""
+    return b"".join([*chunks, encode_index([len(c) for c in chunks], per_shard)])
