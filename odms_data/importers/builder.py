@@ -69,10 +69,11 @@ def build_store(
     )
     with StoreWriter(str(out), fmt, overwrite=overwrite) as w:
         w.create(layout)
+        sink = w.mask_sink()
         tasks = [
-            FrameTask(w.partial, w.format, s, plan.masks[s : s + fps],
+            FrameTask(sink, s, plan.masks[s : s + fps],
                       plan.z[s : s + fps], plan.depth[s : s + fps], (H, W), str(plan.masks[0]),
-                      plan.threshold, fpc, collect_all)
+                      plan.threshold, collect_all)
             for s in range(0, F, fps)
         ]
         fd = np.empty((F, 32), np.uint8)
@@ -90,8 +91,7 @@ def build_store(
                 fd[r.start : stop] = r.digests
                 area[r.start : stop] = r.stats.area
                 w.write_frames(r.start, plan.z[r.start : stop], plan.depth[r.start : stop], r.stats)
-                for c, chunk in enumerate(r.deflated_chunks):
-                    w.write_mask_chunk(r.start + c * fpc, chunk)
+                w.receive_masks(r.start, r.returned_masks)
                 if progress:
                     progress(stop - r.start)
         if failures:

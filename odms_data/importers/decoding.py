@@ -22,7 +22,7 @@ from ..errors import InputError
 from ..parallel import ordered_map, worker_pool
 from ..store.digest import frame_digests
 from ..store.masks import FrameStats, pack, packed_width
-from ..store.writer import write_shard_masks
+from ..store.shard_writer import MaskSink
 from .plan import MaskSource
 
 Item = TypeVar("Item")
@@ -31,10 +31,9 @@ Result = TypeVar("Result")
 
 @dataclass
 class FrameTask:
-    """Frame rows [start, start + len(masks)) of the store being written at `path`."""
+    """Frame rows [start, start + len(masks)) of the store being written, their masks through `sink`."""
 
-    path: str
-    fmt: str
+    sink: MaskSink
     start: int
     masks: Sequence[MaskSource]
     z: np.ndarray
@@ -42,7 +41,6 @@ class FrameTask:
     size: tuple[int, int]
     reference: str  # the source whose size all masks must have
     threshold: int
-    chunk: int  # frames per mask chunk (HDF5 chunks are padded to it)
     collect_all: bool
 
 
@@ -51,7 +49,7 @@ class FrameResult:
     start: int
     stats: FrameStats = field(default_factory=lambda: FrameStats.empty(0))  # both set when no file failed
     digests: np.ndarray = field(default_factory=lambda: np.empty((0, 32), np.uint8))
-    deflated_chunks: list[bytes] = field(default_factory=list)
+    returned_masks: list[bytes] = field(default_factory=list)  # for StoreWriter.receive_masks
     failures: list[tuple[int, str]] = field(default_factory=list)
 
 
@@ -86,7 +84,7 @@ def run_frames(task: FrameTask) -> FrameResult:
     if result.failures:
         return result
     result.stats, result.digests = stats, frame_digests(packed, task.z, task.depth)
-    result.deflated_chunks = write_shard_masks(task.path, task.fmt, task.start, packed, task.chunk)
+    result.returned_masks = task.sink.write_packed(task.start, packed)
     return result
 
 

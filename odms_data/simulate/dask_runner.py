@@ -83,7 +83,7 @@ def run_tasks(
         return
     tasks = itertools.chain([first], tasks)
     with connect(address) as client:
-        check_workers(client, address, first.path)
+        check_workers(client, address, first.sink.path)
 
         def ahead() -> int:  # two tasks per worker thread, recounted as the cluster scales
             return max(4, 2 * sum(client.nthreads().values()))
@@ -97,7 +97,7 @@ def run_tasks(
                 return future.result()
             except Exception as e:
                 raise StoreError(
-                    f"{t.path}: shard of examples {t.start}-{t.stop - 1} failed on {address} "
+                    f"{t.sink.path}: shard of examples {t.start}-{t.stop - 1} failed on {address} "
                     f"after retries ({type(e).__name__}: {e})"
                 ) from e
 

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..store.masks import FrameStats
+from ..store.shard_writer import MaskSink
 from .params import GeneratorParams
 
 SOURCE = "generated"
@@ -24,10 +25,9 @@ def example_ids(split: str, count: int, start: int, stop: int) -> list[str]:
 
 @dataclass
 class ShardTask:
-    """Examples [start, stop) of a generated store, written into the store at `path`."""
+    """Examples [start, stop) of a generated store, their masks written through `sink`."""
 
-    path: str
-    fmt: str
+    sink: MaskSink  # where the masks go
     params: GeneratorParams
     seed: int
     split: str
@@ -43,7 +43,7 @@ class ShardResult:
     z: np.ndarray
     stats: FrameStats
     example_digests: list[bytes]
-    deflated_chunks: list[bytes] = field(default_factory=list)  # HDF5 only, one per example
+    returned_masks: list[bytes] = field(default_factory=list)  # for StoreWriter.receive_masks
 
 
 def run(task: ShardTask) -> ShardResult:

@@ -25,7 +25,7 @@ from ..outputs import DISK_FULL, fsync_tree, move_into_place, output_lock, remov
 from .backends import HDF5_MAGIC, Backend, detect_format, is_url, open_backend
 from .format import ARRAYS, ATTRS_KEY, StoreAttrs, arrays_per, encode_strings, format_of_name, shape_of
 from .masks import FrameStats, packed_width
-from .shard_writer import ShardChunks
+from .shard_writer import MaskSink
 
 
 @dataclass(frozen=True)
@@ -192,11 +192,19 @@ class StoreWriter:
             self.arrays["masks"][start : start + len(packed)] = packed
             self._created()[0].check()
 
-    def write_mask_chunk(self, start: int, deflated: bytes) -> None:
-        """HDF5 only: store one already deflate-compressed mask chunk starting at frame `start`."""
+    def mask_sink(self) -> MaskSink:
+        """Where workers write the masks (picklable; local paths absolute: workers may have another cwd)."""
+        _, L = self._created()
+        return MaskSink(os.path.abspath(self.partial) if self.local else self.partial, self.format,
+                        L.frames_per_chunk)
+
+    def receive_masks(self, start: int, returned: list[bytes]) -> None:
+        """Store what a worker's `MaskSink.write` returned for its shard beginning at frame `start`."""
         with uninterrupted():
-            self.arrays["masks"].id.write_direct_chunk((start, 0, 0), deflated)
-            self._created()[0].check()
+            backend, L = self._created()
+            for c, chunk in enumerate(returned):
+                backend.write_raw_chunk(self.arrays["masks"], start + c * L.frames_per_chunk, chunk)
+            backend.check()
 
     def write_frames(
         self, start: int, z: np.ndarray, depth: np.ndarray, stats: FrameStats
@@ -277,21 +285,6 @@ def _check_new_url_store(url: str, overwrite: bool) -> None:
     if not ours:
         raise StoreExistsError(f"{url}: holds {len(entries)} entries that are not an odms-data store; "
                                "--overwrite replaces only an odms-data store, so choose another output")
-
-
-def write_shard_masks(
-    path: str, fmt: str, start: int, packed: np.ndarray, frames_per_chunk: int
-) -> list[bytes]:
-    """Store a worker's whole shard of packed masks, starting at the shard boundary `start`.
-
-    Zarr: written afresh in one store write (shard_writer.py), replacing what an interrupted
-    earlier attempt may have left; returns []. HDF5 (one writer only): returns the deflated
-    chunks, zero-padded to full length, for `write_mask_chunk`.
-    """
-    chunks = ShardChunks(fmt, frames_per_chunk)
-    for c in range(0, len(packed), frames_per_chunk):
-        chunks.add(packed[c : c + frames_per_chunk])
-    return chunks.write(path, start)
 
 
 def _fit(matrix: np.ndarray, width: int, what: str) -> np.ndarray:
