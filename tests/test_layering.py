@@ -17,7 +17,7 @@ LAYERS = {
     "_version": 0, "errors": 0,
     "benchmark": 1, "resources": 1, "parallel": 1, "outputs": 1, "interrupts": 1,
     "store": 2,
-    "simulate": 3, "importers": 3, "evaluation": 3,
+    "simulate": 3, "importers": 3, "evaluation": 3, "publish": 3,
     "loaders": 4,
     "network": 5,
     "cli": 6,

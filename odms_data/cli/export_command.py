@@ -31,7 +31,7 @@ def export(stores, output, name, licence, examples_per_file, overwrite, as_json)
       odms-data export sim-val.zarr sim-test.zarr -o odms-sim
       odms-data export stores/*-val.zarr -o odms-val --name "ODMS validation"
     """
-    from ..store.hub_export import export_hub
+    from ..publish.hub_export import export_hub
 
     total = 0
     for path in stores:

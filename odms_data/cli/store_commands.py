@@ -132,7 +132,7 @@ def show(store, example_id, output, overwrite):
     Example:
       odms-data show sim-val.zarr sim-val/000042 -o sheet.png
     """
-    from ..store.contact_sheet import contact_sheet, image_format, save_image
+    from ..publish.contact_sheet import contact_sheet, image_format, save_image
 
     check_new_file(output, overwrite, "-o")
     image_format(output)

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 from .._version import __version__
 from ..benchmark import official_name
 from ..errors import InputError
-from .format import ARRAYS, StoreAttrs, arrays_per
+from ..store.format import ARRAYS, StoreAttrs, arrays_per
 
 if TYPE_CHECKING:
     from .hub_export import SplitExport

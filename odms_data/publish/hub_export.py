@@ -26,10 +26,10 @@ import numpy as np
 
 from ..errors import InputError
 from ..outputs import atomic_folder
-from .digest import check_recorded_digest
-from .format import ARRAYS
+from ..store.digest import check_recorded_digest
+from ..store.format import ARRAYS
+from ..store.reader import Store, open_store
 from .hub_metadata import FIELDS, croissant, dataset_card, hub_split, licence_of
-from .reader import Store, open_store
 
 ROW_GROUP = 100  # examples per Parquet row group: small groups let the Hub's viewer page quickly
 Progress = Callable[[int], None]  # called with the number of examples just written
