@@ -19,7 +19,6 @@ from __future__ import annotations
 import hashlib
 import json
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -29,20 +28,10 @@ from ..outputs import atomic_folder
 from ..store.digest import check_recorded_digest
 from ..store.format import ARRAYS
 from ..store.reader import Store, open_store
-from .hub_metadata import FIELDS, croissant, dataset_card, hub_split, licence_of
+from .hub_metadata import FIELDS, SplitExport, croissant, dataset_card, hub_split, licence_of
 
 ROW_GROUP = 100  # examples per Parquet row group: small groups let the Hub's viewer page quickly
 Progress = Callable[[int], None]  # called with the number of examples just written
-
-
-@dataclass
-class SplitExport:
-    """What one store became: its split, examples and Parquet files (relative to the output)."""
-
-    split: str
-    examples: int
-    files: list[str]
-    bytes: int
 
 
 def _example_rows(store: Store, rows: range) -> dict[str, list]:

@@ -11,15 +11,12 @@ from __future__ import annotations
 import json
 import re
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
 
 from .._version import __version__
 from ..benchmark import official_name
 from ..errors import InputError
 from ..store.format import ARRAYS, StoreAttrs, arrays_per
-
-if TYPE_CHECKING:
-    from .hub_export import SplitExport
 
 PAPER = "Learning Object Depth from Camera Motion and Video Object Segmentation"
 BIBTEX = """@inproceedings{GrCo20,
@@ -33,6 +30,16 @@ RELEASE_LICENCE = {  # the licence of the authors' released data (griffbr/ODMS)
     "license_link": "https://github.com/griffbr/ODMS",
 }
 LICENCE_URLS = {"mit": "https://opensource.org/licenses/MIT"}
+
+@dataclass
+class SplitExport:
+    """What one store became: its split, examples and Parquet files (relative to the output)."""
+
+    split: str
+    examples: int
+    files: list[str]
+    bytes: int
+
 
 # the columns that are not store arrays: (Croissant data type, description)
 DERIVED = {

@@ -1,6 +1,6 @@
 """Running generation's shard tasks on a Dask cluster: `generate(..., scheduler=ADDRESS)`.
 
-The tasks are the ShardTasks of a local run, executed by the same `shard_task.run`, so the store and
+The tasks are the ShardTasks of a local run, executed by the same `shard_run.run`, so the store and
 its digest do not depend on the cluster. Each task writes its whole Zarr shard of `masks` in one
 store write; a task that raises is retried by Dask (`RETRIES`), one whose worker dies is rerun
 elsewhere (the scheduler's `allowed-failures`), and a rerun rewrites the whole shard. Results are
@@ -21,7 +21,8 @@ from typing import Any
 from .._version import __version__
 from ..errors import InputError, StoreError
 from ..parallel import ordered_map
-from .shard_task import ShardResult, ShardTask, run
+from .shard_run import run
+from .shard_task import ShardResult, ShardTask
 
 RETRIES = 3  # reruns of a task that raised
 CONNECT_TIMEOUT_S = 30

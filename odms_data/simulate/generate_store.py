@@ -21,7 +21,8 @@ from ..store.format import StoreAttrs
 from ..store.masks import packed_width
 from ..store.writer import Layout, StoreWriter
 from .params import DEFAULT_EXAMPLES_PER_SHARD, GENERATOR_VERSION, MAX_FRAMES, GeneratorParams
-from .shard_task import SOURCE, ShardResult, ShardTask, example_ids, run
+from .shard_run import run
+from .shard_task import SOURCE, ShardResult, ShardTask, example_ids
 
 Progress = Callable[[int], None]
 SHARD_BYTES = 2**28  # the most packed mask bytes one shard task holds

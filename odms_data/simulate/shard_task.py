@@ -1,4 +1,5 @@
-"""What one shard task of a generated store is and what it returns; shards.py runs it.
+"""What one shard task of a generated store is and what it returns; shards.py runs it (through
+shard_run.py).
 
 Light: the process that hands tasks out (to local workers or a Dask cluster) imports this, not
 the renderer, whose imports (Numba, OpenCV) cost it 0.4 CPU-seconds it would never use.
@@ -44,10 +45,3 @@ class ShardResult:
     stats: FrameStats
     example_digests: list[bytes]
     returned_masks: list[bytes] = field(default_factory=list)  # for StoreWriter.receive_masks
-
-
-def run(task: ShardTask) -> ShardResult:
-    """shards.run_shard(task), the renderer imported where the task runs."""
-    from .shards import run_shard
-
-    return run_shard(task)
