@@ -19,8 +19,8 @@ for all frames at once, on canvases grouped by size:
   Ay[:, rows] @ canvas @ Ax[:, cols]^T with the weight matrices taken from cv2 itself (resizing
   an identity matrix), in float32 at full precision (no TF32).
 
-No GPU was available where this was written: it is tested on CPU (tests/loaders/
-test_loaders_torch_render.py) and benchmarks/torch_render.py measures it on any device.
+No GPU was available where this was written: it is tested on CPU
+(tests/simulate/test_torch_render.py) and benchmarks/torch_render.py measures it on any device.
 """
 
 from __future__ import annotations
@@ -33,15 +33,15 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
-from ..simulate.batch_render import frame_geometry
-from ..simulate.object_model import ExampleSpec
-from ..simulate.params import GeneratorParams
+from .batch_render import frame_geometry
+from .object_model import ExampleSpec
+from .params import GeneratorParams
 
 try:
     import torch
 except ImportError as e:  # pragma: no cover - depends on the environment
     raise ImportError(
-        "odms_data.loaders.torch_render needs PyTorch: pip install 'odms-data[torch]' (see README.md)"
+        "odms_data.simulate.torch_render needs PyTorch: pip install 'odms-data[torch]' (see README.md)"
     ) from e
 
 PIXEL_BUDGET = 1 << 26  # canvas pixels drawn at once (float32 shrink temporaries: a few GB at most)
