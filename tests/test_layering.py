@@ -16,7 +16,7 @@ PACKAGE = Path(odms_data.__file__).resolve().parent
 # the rank of each top-level module and folder; a module may import lower ranks and its own folder
 LAYERS = {
     "_version": 0, "errors": 0,
-    "benchmark": 1, "resources": 1, "parallel": 1, "outputs": 1, "interrupts": 1,
+    "protocol": 1, "resources": 1, "parallel": 1, "outputs": 1, "interrupts": 1,
     "store": 2,
     "simulate": 3, "importers": 3, "evaluation": 3, "publish": 3,
     "loaders": 4,
@@ -133,7 +133,7 @@ def test_the_layering_check_sees_relative_lazy_upward_and_sideways_imports():
     assert {"odms_data._version", "odms_data.errors"} <= cli
     assert _violation("odms_data.store.reader", "odms_data.loaders.sources")  # up
     assert _violation("odms_data.simulate.render", "odms_data.importers.plan")  # sideways
-    assert _violation("odms_data.benchmark", "odms_data.parallel")  # sideways at the root
+    assert _violation("odms_data.protocol", "odms_data.parallel")  # sideways at the root
     assert _violation("odms_data.cli.progress", "odms_data")  # the root
     assert _violation("odms_data.store.reader", "odms_data.store.masks") is None
     assert _violation("odms_data.loaders.sources", "odms_data.simulate.render") is None

@@ -8,7 +8,6 @@ from contextlib import AbstractContextManager
 
 import click
 
-from ..benchmark import OFFICIAL_SPLITS
 from ..errors import InputError
 from ..importers.plan import DEFAULT_THRESHOLD
 from ..importers.synthia_protocol import (
@@ -19,6 +18,7 @@ from ..importers.synthia_protocol import (
     Selection,
     parse_classes,
 )
+from ..protocol import OFFICIAL_SPLITS
 from . import echo_json
 from .progress import progress
 

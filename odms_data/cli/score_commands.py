@@ -8,7 +8,6 @@ from pathlib import Path
 
 import click
 
-from ..benchmark import FAMILIES, split_order
 from ..errors import InputError
 from ..evaluation.ground_truth import (
     DEFAULT_DATA,
@@ -21,6 +20,7 @@ from ..evaluation.ground_truth import (
 from ..evaluation.vosde import DEFAULT_N_OBS
 from ..evaluation.vosde import vosde as run_vosde
 from ..outputs import check_new_file, write_text
+from ..protocol import FAMILIES, split_order
 from ..store.reader import open_store
 from . import echo_json
 from .progress import progress

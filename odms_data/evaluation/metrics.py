@@ -11,8 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..benchmark import ABS_UNITS, FAMILIES, OFFICIAL_DOMAINS, official_name
 from ..errors import StoreError
+from ..protocol import ABS_UNITS, FAMILIES, OFFICIAL_DOMAINS, official_name
 
 
 def percent_errors(pred: np.ndarray, truth: np.ndarray) -> np.ndarray:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ..benchmark import FAMILIES
+from ..protocol import FAMILIES
 from .scoring import ScoreReport
 
 

@@ -7,7 +7,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from ..benchmark import split_order
+from ..protocol import split_order
 from .ground_truth import SplitTruth
 from .metrics import SplitScore, family_all, percent_errors, score_split
 from .predictions import Predictions, check_against

@@ -16,8 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..benchmark import protocol_windows
 from ..errors import InputError
+from ..protocol import protocol_windows
 from ..store.format import StoreAttrs, store_path
 from .builder import BadFiles, build_store
 from .decoding import Workers

@@ -23,8 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..benchmark import OFFICIAL_SPLITS, ROBOT_FRAMES, ROBOT_N_OBS, ROBOT_WINDOWS, protocol_windows
 from ..errors import DigestMismatchError, InputError, OutputExistsError
+from ..protocol import OFFICIAL_SPLITS, ROBOT_FRAMES, ROBOT_N_OBS, ROBOT_WINDOWS, protocol_windows
 from ..store.format import StoreAttrs, store_path
 from ..store.manifests import check_against_manifest, load_manifest, split_names
 from .builder import BadFiles, build_store

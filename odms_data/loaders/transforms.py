@@ -23,8 +23,8 @@ from typing import Any
 import cv2
 import numpy as np
 
-from ..benchmark import evenly_spaced
 from ..errors import InputError
+from ..protocol import evenly_spaced
 from ..simulate.shrink import resize_masks
 from .targets import labels
 

@@ -15,12 +15,12 @@ import numpy as np
 import torch
 from torch.utils.data import DataLoader
 
-from ..benchmark import split_order
 from ..errors import InputError
 from ..evaluation.predictions import write_predictions
 from ..loaders.targets import depth
 from ..loaders.torch_loader import StoreDataset
 from ..outputs import check_new_file
+from ..protocol import split_order
 from ..store.reader import open_store
 from . import odn
 from .odn import ODN

@@ -14,8 +14,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 from .._version import __version__
-from ..benchmark import official_name
 from ..errors import InputError
+from ..protocol import official_name
 from ..store.format import ARRAYS, StoreAttrs, arrays_per
 
 PAPER = "Learning Object Depth from Camera Motion and Video Object Segmentation"
