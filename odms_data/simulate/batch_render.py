@@ -13,7 +13,7 @@ The per-frame arithmetic of `render.render_frame` is done once for all frames of
 in the same order of operations (so the same floats), and the frames' canvases are stacked as
 rows of one image where raster.draw_silhouettes draws them in one call. render_masks draws
 frames whose canvas leaves the image, or is perturbed, through render_frame.
-tests/loaders/test_loaders_transforms.py checks equality with the slow way."""
+tests/loaders/test_transforms.py checks equality with the slow way."""
 
 from __future__ import annotations
 
