@@ -28,7 +28,7 @@ from ..parallel import uninterrupted
 Layout = dict[str, tuple[tuple[int, ...], str, int]]  # key -> shape, dtype, byte offset in the block
 _ALIGN = 64
 HEADER = _ALIGN  # bytes at the start of a block before its arrays: the flags below
-BUSY, ATTACHED, RETIRED = 0, 1, 2  # header bytes of a block a DataLoader worker owns (WorkerBlocks)
+BUSY, RETIRED = 0, 2  # header bytes of a block a DataLoader worker owns (WorkerBlocks)
 _ATTACHED: dict[str, SharedMemory] = {}  # blocks this worker has mapped, by name
 
 

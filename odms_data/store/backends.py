@@ -1,6 +1,6 @@
 """The two storage backends, Zarr v3 (sharded) and HDF5, behind one small interface.
 
-Both hold the same arrays (odms_data.format) and the root attribute `odms`: a JSON object
+Both hold the same arrays (format.ARRAYS) and the root attribute `odms`: a JSON object
 in Zarr, a JSON string in HDF5 (HDF5 attributes cannot nest).
 """
 

@@ -4,12 +4,12 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from _stores import stats_of
 
 from odms_data.errors import InputError
 from odms_data.simulate.object_model import sample_example, sample_examples, spaced_points
 from odms_data.simulate.params import PRESETS, GeneratorParams, preset
 from odms_data.simulate.render import render_masks
-from odms_data.store.masks import stats_of
 
 STANDARD, PERTURB = PRESETS["standard"], PRESETS["perturb"]
 

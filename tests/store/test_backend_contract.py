@@ -10,11 +10,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _stores import stats_of
 
 from odms_data.errors import StoreError, StoreExistsError
 from odms_data.store.digest import recompute_digest
 from odms_data.store.format import StoreAttrs
-from odms_data.store.masks import pack, stats_of
+from odms_data.store.masks import pack
 from odms_data.store.reader import Store, open_store
 from odms_data.store.writer import Layout, StoreWriter
 

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import zarr
+from _stores import stats_of
 
 from odms_data.errors import InputError, StoreError, StoreExistsError, StoreLockedError
 from odms_data.simulate.generate_store import generate
@@ -16,7 +17,7 @@ from odms_data.simulate.params import GENERATOR_VERSION, PRESETS
 from odms_data.simulate.render import render_masks
 from odms_data.store.convert import convert
 from odms_data.store.digest import frame_digests, frame_tails, padded_frame_digests
-from odms_data.store.masks import pack, stats_of, unpack
+from odms_data.store.masks import pack, unpack
 from odms_data.store.reader import open_store
 from odms_data.store.validate import validate
 from odms_data.store.writer import StoreWriter
