@@ -28,8 +28,8 @@ from ..simulate.params import PRESETS, GeneratorParams
 from ..store.reader import open_store
 from . import odn
 from .odn import ODN
-from .prediction import Batch, outputs_and_depths, pick_device, read_checkpoint, store_batches, to_device
 from .run_folder import BEST, LAST, TRAIN, VAL, AddRow, RunFolder, TrainConfig
+from .runtime import Batch, outputs_and_depths, pick_device, read_checkpoint, store_batches, to_device
 from .variants import Variant, variant
 
 
