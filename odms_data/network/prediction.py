@@ -17,11 +17,10 @@ from ..errors import InputError
 from ..evaluation.predictions import write_predictions
 from ..outputs import check_new_file
 from ..protocol import split_order
-from ..store.reader import open_store
 from . import odn
 from .odn import ODN
 from .run_folder import BEST, LAST, RunFolder, TrainConfig
-from .runtime import outputs_and_depths, pick_device, read_checkpoint, store_batches, to_device
+from .runtime import outputs_and_depths, pick_device, read_checkpoint, store_batches, store_dataset, to_device
 from .variants import variant
 
 
@@ -49,14 +48,15 @@ def predict_store(
     progress: Callable[[int], None] = lambda n: None,
 ) -> tuple[str, list[str], np.ndarray]:
     """(split, example ids, predicted d1) of every example of the store at `path`."""
-    with open_store(path) as s:
+    dataset = store_dataset(path, config)  # the store opened once, its batches read from it
+    with dataset.examples.store as s:
         split, ids, n = s.attrs.split, s.example_ids, len(s)
-    v = variant(config.model)
-    d1 = np.empty(n)
-    for batch in store_batches(path, config, workers, device.type == "cuda"):
-        _, d = outputs_and_depths(model, v, to_device(batch, device))
-        d1[batch["index"].numpy()] = d.cpu().numpy()
-        progress(len(batch["index"]))
+        v = variant(config.model)
+        d1 = np.empty(n)
+        for batch in store_batches(dataset, workers, device.type == "cuda"):
+            _, d = outputs_and_depths(model, v, to_device(batch, device))
+            d1[batch["index"].numpy()] = d.cpu().numpy()
+            progress(len(batch["index"]))
     return split, ids, d1
 
 

@@ -45,9 +45,13 @@ def to_device(batch: Batch, device: torch.device) -> Batch:
     return {k: t.to(device, non_blocking=True) for k, t in batch.items()}
 
 
-def store_batches(path: str, config: TrainConfig, workers: int, pin: bool) -> Iterable[Batch]:
-    """The store's examples as network inputs, in row order, EVAL_BATCH at a time."""
-    dataset = StoreDataset(path, odn.transform(config.n_obs, config.radial))
+def store_dataset(path: str, config: TrainConfig) -> StoreDataset:
+    """The store's examples as the network's inputs; its open store is `.examples.store`."""
+    return StoreDataset(path, odn.transform(config.n_obs, config.radial))
+
+
+def store_batches(dataset: StoreDataset, workers: int, pin: bool) -> Iterable[Batch]:
+    """The dataset's examples in row order, EVAL_BATCH at a time."""
     return DataLoader(dataset, batch_size=EVAL_BATCH, num_workers=workers, pin_memory=pin)
 
 
