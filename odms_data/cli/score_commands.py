@@ -59,7 +59,7 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
     """
     from ..evaluation.leaderboard import entry_from_report
     from ..evaluation.predictions import read_predictions
-    from ..evaluation.score_tables import render_markdown, render_text
+    from ..evaluation.score_tables import render_text, report_markdown
     from ..evaluation.scoring import score as score_predictions
 
     if as_json and markdown:
@@ -82,7 +82,7 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
     if as_json:
         echo_json(report.to_json())
     elif markdown:
-        click.echo(render_markdown(report), nl=False)
+        click.echo(report_markdown(report), nl=False)
     else:
         click.echo(render_text(report), nl=False)
     if plot:

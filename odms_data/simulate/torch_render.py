@@ -49,7 +49,7 @@ SIZE_STEP = 1.25  # canvases drawn together differ in size by less than this fac
 
 
 @lru_cache(maxsize=8)
-def area_weights(full: int, small: int) -> np.ndarray:
+def area_matrix(full: int, small: int) -> np.ndarray:
     """(small, full) float32: cv2 INTER_AREA's weights of the `full` input pixels in each of the
     `small` output pixels along one axis, read off cv2 by shrinking an identity matrix."""
     eye = np.eye(full, dtype=np.float32)
@@ -172,7 +172,7 @@ def render_coverage(
     extent = g.hi - g.lo
     pad_x, pad_y = (int(v) for v in extent.max(axis=0))  # canvases overlap the image
     ay, ax = np.zeros((h, H0 + 2 * pad_y), np.float32), np.zeros((w, W0 + 2 * pad_x), np.float32)
-    ay[:, pad_y : pad_y + H0], ax[:, pad_x : pad_x + W0] = area_weights(H0, h), area_weights(W0, w)
+    ay[:, pad_y : pad_y + H0], ax[:, pad_x : pad_x + W0] = area_matrix(H0, h), area_matrix(W0, w)
     ay_t, ax_t = torch.from_numpy(ay).to(device), torch.from_numpy(ax).to(device)
     total = len(g.k)
     out = torch.empty((total, h, w), dtype=torch.float32, device=device)

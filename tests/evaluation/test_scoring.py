@@ -13,7 +13,7 @@ from odms_data.cli import main
 from odms_data.errors import InputError
 from odms_data.evaluation.leaderboard import entry_problems, family_all, load_entries, render_markdown
 from odms_data.evaluation.metrics import SplitScore, percent_errors, score_split
-from odms_data.evaluation.metrics import family_all as report_all
+from odms_data.evaluation.metrics import all_by_family as report_all
 from odms_data.evaluation.predictions import HEADER
 from odms_data.resources import resource_dir
 

@@ -14,7 +14,7 @@ from odms_data.errors import InputError, StoreError, StoreExistsError, StoreLock
 from odms_data.simulate.generate_store import generate
 from odms_data.simulate.object_model import sample_example
 from odms_data.simulate.params import GENERATOR_VERSION, PRESETS
-from odms_data.simulate.render import render_masks
+from odms_data.simulate.render import reference_masks
 from odms_data.store.convert import convert
 from odms_data.store.digest import frame_digests, frame_tails, padded_frame_digests
 from odms_data.store.masks import pack, unpack
@@ -59,7 +59,7 @@ def test_store_holds_what_the_generator_draws(small_zarr):
         for i in (0, 7, 29):
             spec = sample_example(PERTURB, 5, i)
             ex = s.example(f"small/{i:06d}")
-            expected = render_masks(spec, PERTURB).astype(bool)
+            expected = reference_masks(spec, PERTURB).astype(bool)
             np.testing.assert_array_equal(ex.masks, expected)
             np.testing.assert_array_equal(ex.z, spec.z)
             assert ex.d1 == spec.z[0]
