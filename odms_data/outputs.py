@@ -1,10 +1,17 @@
-"""The rules every file odms-data writes follows (stores, in store/writer.py, share the lock and
-the messages):
+"""The one owner of every write of every output: stores, files, exports, training runs, entries.
 
-- an existing path is refused unless `overwrite`, and a folder is never replaced by a file;
-- the content goes to the sibling `<path>.partial` under the lock `<path>.lock` (flock, one
-  writer at a time), is flushed to disk and renamed into place, so the old file survives any
-  failure and a half-written file is never left at the path;
+- what may be replaced (`check_replaceable`): an existing path is refused unless `overwrite`, and
+  even then when the output's `Kind` says it is not odms-data's own (a folder where a file goes,
+  a folder that is not a store, a symbolic link where a folder goes);
+- the content goes to the sibling folder `<path>.partial` under the lock `<path>.lock` (flock,
+  one writer at a time), is flushed to disk and renamed into place, so the old output survives
+  any failure and a half-written one is never left at the path;
+- a sibling is never reused blindly: the lock and the folders are created with O_EXCL and
+  O_NOFOLLOW (mkdir never follows a link); an existing one is taken over only when it is provably
+  odms-data's own (a lock: a regular file holding nothing or a process id; a folder: empty, or
+  holding the marker file odms-data writes into each one it makes), else refused in one line,
+  never deleted;
+- a sibling whose name would pass NAME_MAX is shortened, with a hash of the output's name;
 - a failed write (a full disk, say) removes the sibling and is one line naming the path;
 - nothing is written inside a Zarr store (a folder holding zarr.json).
 """
@@ -13,15 +20,44 @@ from __future__ import annotations
 
 import errno
 import fcntl
+import hashlib
 import os
+import re
 import shutil
+import stat
+import uuid
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 
-from .errors import InputError, OutputExistsError, OutputLockedError, StoreLockedError, WriteError
+from .errors import InputError, OdmsError, OutputExistsError, OutputLockedError, WriteError
 
 DISK_FULL = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})
+NAME_MAX = 255  # bytes of one file name on Linux, macOS and Windows file systems alike
+MARKER = ".odms-data-partial"  # in every sibling folder odms-data makes: what proves it is ours
+_LOCK_CONTENT = re.compile(rb"\s*\d{0,20}\s*")  # what a lock file of ours holds: a process id, or nothing
+
+
+def _is_a_folder(path: Path) -> str | None:
+    return "is a folder; give a file name" if path.is_dir() else None
+
+
+@dataclass(frozen=True)
+class Kind:
+    """What an output is, for the rule of what may be replaced: its noun (for messages), what
+    makes an existing path something odms-data does not replace even with `overwrite` (None: it
+    may be replaced), and the errors to raise."""
+
+    noun: str
+    foreign: Callable[[Path], str | None] = _is_a_folder
+    exists_error: type[OdmsError] = OutputExistsError
+    locked_error: type[OdmsError] = OutputLockedError
+
+
+FILE = Kind("file")
+
+
 def write_error(path: str | os.PathLike, e: OSError) -> WriteError:
     """One line naming the output `path` for an OSError met while writing it."""
     if e.errno in DISK_FULL:
@@ -31,13 +67,49 @@ def write_error(path: str | os.PathLike, e: OSError) -> WriteError:
     return WriteError(f"{path}: cannot be written: {why}; nothing was left behind")
 
 
-def remove(path: str | os.PathLike) -> None:
-    """Remove a file, link or folder tree at `path`, if there is one."""
+def sibling(path: str | os.PathLike, suffix: str) -> Path:
+    """`<path><suffix>`, its name shortened (keeping a hash of the whole) where it would pass NAME_MAX."""
+    p = Path(str(path).rstrip("/") or "/")
+    name, tail = os.fsencode(p.name), os.fsencode(suffix)
+    if len(name) + len(tail) <= NAME_MAX:
+        return p.with_name(p.name + suffix)
+    digest = hashlib.sha256(name).hexdigest()[:16].encode()
+    short = name[: NAME_MAX - len(tail) - len(digest) - 1] + b"~" + digest + tail
+    return p.with_name(os.fsdecode(short))
+
+
+def check_replaceable(
+    path: str | os.PathLike, overwrite: bool, kind: Kind = FILE, option: str = "",
+    suffixes: tuple[str, ...] = (),
+) -> None:
+    """Refuse an output path that exists (unless `overwrite`), or that `kind` says odms-data does
+    not replace, or whose name does not end with one of `suffixes` (when given: a CSV named
+    x.zarr would pass for a store). `option` names the command-line option that gave the path."""
     p = Path(path)
-    if p.is_dir() and not p.is_symlink():
-        shutil.rmtree(p)
-    elif p.exists() or p.is_symlink():
-        p.unlink()
+
+    def foreign() -> str | None:
+        return "is a symbolic link" if kind is not FILE and p.is_symlink() else kind.foreign(p)
+
+    refuse_existing(f"{option} {path}" if option else str(path), p.exists() or p.is_symlink(), overwrite,
+                    foreign, kind)
+    if suffixes and p.suffix.lower() not in suffixes:
+        raise InputError(f"{option + ' ' if option else ''}{path}: name the file *{' or *'.join(suffixes)}")
+
+
+def refuse_existing(where: str, exists: bool, overwrite: bool, foreign: Callable[[], str | None],
+                    kind: Kind) -> None:
+    """The rule itself, for a local path or a URL: `foreign()` says what makes what is there
+    something odms-data does not replace (None: it may be replaced with `overwrite`)."""
+    if not exists:
+        return
+    what = foreign()
+    if what and kind is FILE:  # a folder where a file goes: no --overwrite would help
+        raise kind.exists_error(f"{where}: {what}")
+    if not overwrite:
+        raise kind.exists_error(f"{where}: already exists; pass --overwrite to replace it")
+    if what:
+        raise kind.exists_error(f"{where}: {what}; --overwrite replaces only what odms-data wrote, so "
+                                "move it away or choose another output")
 
 
 def _make_parents(path: Path) -> list[Path]:
@@ -47,30 +119,57 @@ def _make_parents(path: Path) -> list[Path]:
     return missing
 
 
+def _open_lock(lock: Path, path: str | os.PathLike, kind: Kind) -> int:
+    """Open the lock file, creating it, or taking over one that is provably a stale lock of ours;
+    never through a link, never a file that is something else."""
+    try:
+        return os.open(lock, os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
+    except FileExistsError:
+        pass
+    foreign = kind.exists_error(f"{lock}: exists and is not an odms-data lock; odms-data locks {path} "
+                                "with this name, so move it away")
+    try:
+        fd = os.open(lock, os.O_RDWR | os.O_NOFOLLOW | os.O_NONBLOCK)
+    except OSError as e:
+        if e.errno in (errno.ELOOP, errno.EMLINK, errno.ENXIO, errno.EISDIR):  # a link, a fifo, a folder
+            raise foreign from None
+        raise
+    st = os.fstat(fd)
+    if not stat.S_ISREG(st.st_mode) or st.st_nlink != 1 or st.st_size > 64 \
+            or not _LOCK_CONTENT.fullmatch(os.pread(fd, 64, 0)):
+        os.close(fd)
+        raise foreign
+    return fd
+
+
 @contextmanager
-def output_lock(path: str | os.PathLike, noun: str = "file") -> Iterator[None]:
+def output_lock(path: str | os.PathLike, kind: Kind = FILE) -> Iterator[None]:
     """Hold `<path>.lock` (flock, holding this process's id) while `path` is written. Folders made
     for it are removed again when they are left empty (the write failed). A path inside a Zarr
     store is refused."""
-    lock = Path(str(path).rstrip("/") + ".lock")
+    lock = sibling(path, ".lock")
     store = next((p for p in lock.absolute().parents if (p / "zarr.json").is_file()), None)
     if store is not None:  # it would become part of the store (an input, most often)
         raise InputError(f"{path}: is inside the Zarr store {store}; choose an output outside it")
     try:
         made = _make_parents(lock)
-        fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
+        fd = _open_lock(lock, path, kind)
     except OSError as e:
         raise write_error(path, e) from None
     try:
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            holder = os.read(fd, 64).decode(errors="replace").strip() or "unknown"
-            locked = StoreLockedError if noun == "store" else OutputLockedError
-            raise locked(f"{path}: another odms-data process (pid {holder}) is writing this {noun}") from None
+            mine = os.fstat(fd)
+            there = os.lstat(lock)
+            if (mine.st_dev, mine.st_ino) != (there.st_dev, there.st_ino):
+                raise BlockingIOError  # the holder removed it as we opened it: it was busy
+        except (BlockingIOError, FileNotFoundError):
+            holder = os.pread(fd, 64, 0).decode(errors="replace").strip() or "unknown"
+            raise kind.locked_error(f"{path}: another odms-data process (pid {holder}) is writing this "
+                                    f"{kind.noun}") from None
         try:
             os.ftruncate(fd, 0)
-            os.write(fd, str(os.getpid()).encode())  # for the message of a second writer
+            os.pwrite(fd, str(os.getpid()).encode(), 0)  # for the message of a second writer
         except OSError:
             pass  # a full disk: the lock holds without it, and the write itself will say so
         try:
@@ -86,22 +185,79 @@ def output_lock(path: str | os.PathLike, noun: str = "file") -> Iterator[None]:
                 break  # not empty: it holds the output
 
 
-def check_new_file(
-    path: str | os.PathLike, overwrite: bool, option: str = "", suffixes: tuple[str, ...] = ()
-) -> None:
-    """Refuse an output file path that exists (unless `overwrite`), that is a folder, or whose
-    name does not end with one of `suffixes` (when given: a CSV named x.zarr would pass for a store).
+def _ours(folder: Path) -> bool:
+    """Whether `folder` is a sibling folder odms-data made: a real folder, empty or with the marker."""
+    try:
+        if not stat.S_ISDIR(os.lstat(folder).st_mode):
+            return False
+        names = os.listdir(folder)
+        return not names or (MARKER in names and stat.S_ISREG(os.lstat(folder / MARKER).st_mode))
+    except FileNotFoundError:
+        return False
 
-    `option` names the command-line option that gave the path, for the message.
-    """
-    p = Path(path)
-    what = f"{option} {path}" if option else str(path)
-    if p.is_dir():
-        raise OutputExistsError(f"{what}: is a folder; give a file name")
-    if (p.exists() or p.is_symlink()) and not overwrite:
-        raise OutputExistsError(f"{what}: already exists; pass --overwrite to replace it")
-    if suffixes and p.suffix.lower() not in suffixes:
-        raise InputError(f"{what}: name the file *{' or *'.join(suffixes)}")
+
+def _refuse_foreign(folder: Path, target: Path, kind: Kind) -> None:
+    """Refuse a sibling `folder` of `target` that is there and not odms-data's own."""
+    if os.path.lexists(folder) and not _ours(folder):
+        what = "a symbolic link" if folder.is_symlink() else "a folder" if folder.is_dir() else "a file"
+        raise kind.exists_error(f"{folder}: is {what} odms-data did not make; odms-data writes {target} "
+                                "through this name, so move it away")
+
+
+def _make_sibling_folder(folder: Path, target: Path, kind: Kind) -> None:
+    """Make the sibling folder `folder` of `target` with the marker in it; a stale one of ours (an
+    interrupted run's) is removed first, anything else there is refused."""
+    if os.path.lexists(folder):
+        _refuse_foreign(folder, target, kind)
+        shutil.rmtree(folder)
+    folder.mkdir()
+    try:
+        fd = os.open(folder / MARKER, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
+        try:
+            os.write(fd, f"odms-data {os.getpid()} {uuid.uuid4()}\n".encode())
+        finally:
+            os.close(fd)
+    except BaseException:
+        shutil.rmtree(folder, ignore_errors=True)  # just made: a full disk, say
+        raise
+
+
+class Partial:
+    """Where an output is written before it is renamed into place: the sibling folder
+    `<path>.partial` (odms-data's, marked), which is the output itself when the output is a
+    folder, and holds it under its own name when it is a file."""
+
+    def __init__(self, path: str | os.PathLike, folder: bool, kind: Kind = FILE) -> None:
+        self.target, self.kind, self.is_folder = Path(path), kind, folder
+        self.folder = sibling(path, ".partial")
+        self.path = self.folder if folder else self.folder / self.target.name
+        self._made = False
+
+    def make(self) -> Path:
+        """Make the (empty) partial output's place; returns its path. A foreign `.replaced`
+        sibling is refused now, before the work, rather than when the output is moved into place."""
+        if self.is_folder or self.target.is_dir():  # the two cases that move the old output aside
+            _refuse_foreign(sibling(self.target, ".replaced"), self.target, self.kind)
+        _make_sibling_folder(self.folder, self.target, self.kind)
+        self._made = True
+        return self.path
+
+    def commit(self) -> None:
+        """Flush the finished output and rename it onto the target, replacing what is there."""
+        fsync_tree(self.path)
+        if self.is_folder:  # only now: a stale partial without the marker is refused, not removed
+            (self.folder / MARKER).unlink()
+        _move_into_place(self.path, self.target, self.kind)
+        if not self.is_folder:
+            (self.folder / MARKER).unlink()
+            self.folder.rmdir()
+        self._made = False
+
+    def discard(self) -> None:
+        """Remove what was written, if this made it."""
+        if self._made and self.folder.is_dir() and not self.folder.is_symlink():  # made under our lock
+            shutil.rmtree(self.folder, ignore_errors=True)
+        self._made = False
 
 
 def fsync_tree(path: str | os.PathLike) -> None:
@@ -118,7 +274,7 @@ def fsync_tree(path: str | os.PathLike) -> None:
 
 
 def _fsync(path: Path, flags: int) -> None:
-    fd = os.open(path, flags)
+    fd = os.open(path, flags | os.O_NOFOLLOW)
     try:
         os.fsync(fd)
     finally:
@@ -130,26 +286,38 @@ def sync_parent(path: str | os.PathLike) -> None:
     _fsync(Path(path).absolute().parent, os.O_RDONLY | os.O_DIRECTORY)
 
 
-def move_into_place(partial: Path, target: Path) -> None:
-    """Rename the finished `partial` onto `target`, whose old content is moved aside first and
-    removed after, and flush the folder holding it."""
-    if target.exists() or target.is_symlink():
-        old = Path(f"{target}.replaced")
-        remove(old)
-        target.rename(old)
-        partial.rename(target)
-        remove(old)
+def _move_into_place(new: Path, target: Path, kind: Kind) -> None:
+    """Rename the finished `new` onto `target`. A file replaces a file in one rename; anything
+    else there is first moved aside into the sibling folder `<target>.replaced` and removed after."""
+    if not (new.is_dir() or target.is_dir()) or not os.path.lexists(target):
+        os.replace(new, target)
     else:
-        partial.rename(target)
+        aside = sibling(target, ".replaced")
+        _make_sibling_folder(aside, target, kind)
+        target.rename(aside / target.name)
+        new.rename(target)
+        shutil.rmtree(aside)
     sync_parent(target)
+
+
+def _failed(e: BaseException, path: str | os.PathLike, partial: Partial) -> BaseException | None:
+    """The one-line error for an OSError met while writing `path`, if it is one."""
+    if isinstance(e, OSError) and (e.errno in DISK_FULL or _inside(e.filename, partial.folder)):
+        return write_error(path, e)
+    return None
+
+
+def _inside(filename: object, folder: Path) -> bool:
+    name = os.fspath(filename) if isinstance(filename, str | os.PathLike) else None
+    return name is not None and (name == str(folder) or name.startswith(str(folder) + os.sep))
 
 
 @contextmanager
 def atomic_file(path: str | os.PathLike, *, overwrite: bool = False, option: str = "") -> Iterator[Path]:
-    """Yields the temporary sibling to write `path` into; on leaving normally it is flushed and
-    renamed onto `path`; on an error it is removed and `path` is as it was."""
+    """Yields the temporary path to write `path` at; on leaving normally it is flushed and renamed
+    onto `path`; on an error it is removed and `path` is as it was."""
     with output_lock(path):
-        check_new_file(path, overwrite, option)
+        check_replaceable(path, overwrite, FILE, option)
         with replaced_via_partial(path) as partial:
             yield partial
 
@@ -157,20 +325,18 @@ def atomic_file(path: str | os.PathLike, *, overwrite: bool = False, option: str
 @contextmanager
 def replaced_via_partial(path: str | os.PathLike) -> Iterator[Path]:
     """`atomic_file` without the lock and the existence check, for a file that its owner
-    replaces as it goes (a training run's checkpoints): yields `<path>.partial`, flushed and
-    renamed onto `path` when the block ends normally, removed (and a full disk one line naming
-    `path`) when it does not."""
-    partial = Path(f"{path}.partial")
+    replaces as it goes (a training run's checkpoints, under the run's lock): yields the path to
+    write, flushed and renamed onto `path` when the block ends normally, removed (and a full
+    disk one line naming `path`) when it does not."""
+    partial = Partial(path, folder=False)
     try:
-        remove(partial)
-        yield partial
-        fsync_tree(partial)
-        os.replace(partial, path)
-        sync_parent(path)
+        yield partial.make()
+        partial.commit()
     except BaseException as e:
-        remove(partial)
-        if isinstance(e, OSError) and (e.errno in DISK_FULL or e.filename in (str(partial), partial)):
-            raise write_error(path, e) from e
+        partial.discard()
+        failed = _failed(e, path, partial)
+        if failed is not None:
+            raise failed from e
         raise
 
 
@@ -186,33 +352,18 @@ def write_text(path: str | os.PathLike, text: str, *, overwrite: bool = False, o
 
 
 @contextmanager
-def atomic_folder(
-    path: str | os.PathLike, *, overwrite: bool = False, foreign: Callable[[Path], str | None]
-) -> Iterator[Path]:
-    """`atomic_file` for an output that is a folder: yields the empty folder `<path>.partial`,
-    renamed onto `path` (replacing what was there) when the block ends normally.
-
-    An existing `path` is refused unless `overwrite`, and even then when `foreign(path)` says what
-    makes it something odms-data did not write (None: it may be replaced).
-    """
-    target = Path(path)
-    with output_lock(path):
-        if target.exists() or target.is_symlink():
-            if not overwrite:
-                raise OutputExistsError(f"{path}: already exists; pass --overwrite to replace it")
-            what = "is a symbolic link" if target.is_symlink() else foreign(target)
-            if what:
-                raise OutputExistsError(f"{path}: {what}; --overwrite replaces only what odms-data wrote, so "
-                                        "move it away or choose another output")
-        partial = Path(f"{path}.partial")
+def atomic_folder(path: str | os.PathLike, kind: Kind, *, overwrite: bool = False) -> Iterator[Path]:
+    """`atomic_file` for an output that is a folder: yields the empty folder to write, renamed
+    onto `path` (replacing what was there, if `kind` allows it) when the block ends normally."""
+    with output_lock(path, kind):
+        check_replaceable(path, overwrite, kind)
+        partial = Partial(path, folder=True, kind=kind)
         try:
-            remove(partial)
-            partial.mkdir()
-            yield partial
-            fsync_tree(partial)
-            move_into_place(partial, target)
+            yield partial.make()
+            partial.commit()
         except BaseException as e:
-            remove(partial)
-            if isinstance(e, OSError) and (e.errno in DISK_FULL or str(e.filename).startswith(str(partial))):
-                raise write_error(path, e) from e
+            partial.discard()
+            failed = _failed(e, path, partial)
+            if failed is not None:
+                raise failed from e
             raise

@@ -11,7 +11,7 @@ import pytest
 from odms_data.errors import InputError, Interrupted, OutputExistsError, WriteError
 from odms_data.evaluation.predictions import read_predictions
 from odms_data.interrupts import stop_requested, uninterrupted
-from odms_data.outputs import atomic_file, check_new_file, replaced_via_partial, write_text
+from odms_data.outputs import atomic_file, check_replaceable, replaced_via_partial, write_text
 
 
 def test_a_failed_write_keeps_the_old_file_and_leaves_nothing(tmp_path):
@@ -45,12 +45,12 @@ def test_a_file_replaced_as_it_goes_survives_a_full_disk(tmp_path):
 def test_existing_paths_folders_and_suffixes_are_refused(tmp_path):
     (tmp_path / "a.csv").write_text("x")
     with pytest.raises(OutputExistsError, match="already exists; pass --overwrite"):
-        check_new_file(tmp_path / "a.csv", False, "-o")
+        check_replaceable(tmp_path / "a.csv", False, option="-o")
     with pytest.raises(OutputExistsError, match="is a folder"):
-        check_new_file(tmp_path, True, "-o")
+        check_replaceable(tmp_path, True, option="-o")
     with pytest.raises(InputError, match=r"name the file \*\.csv"):
-        check_new_file(tmp_path / "a.zarr", False, "-o", (".csv",))
-    check_new_file(tmp_path / "a.csv", True, "-o", (".csv",))
+        check_replaceable(tmp_path / "a.zarr", False, option="-o", suffixes=(".csv",))
+    check_replaceable(tmp_path / "a.csv", True, option="-o", suffixes=(".csv",))
 
 
 def test_folders_made_for_a_failed_output_are_removed(tmp_path):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import signal
 import sys
 import time
 from pathlib import Path
@@ -10,6 +11,7 @@ from typing import Any
 
 import click
 
+from ..errors import Interrupted
 from ..network.variants import VARIANTS
 from ..simulate.params import PRESETS
 from .progress import PERIOD, duration, progress
@@ -109,12 +111,13 @@ def train(ctx, model, radial, run, val, iterations, batch_size, lr, val_every, n
     shown = _TrainProgress(run)
     try:
         s = run_training(run, config, workers=workers, device=device, overwrite=overwrite, report=shown)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as e:
         shown.close()
         at = shown.status.checkpoint if shown.status else 0
-        click.echo(f"odms-data: interrupted; rerun the same command to resume {run} from its last checkpoint "
-                   f"(iteration {at})", err=True)
-        ctx.exit(130)
+        signum = e.signum if isinstance(e, Interrupted) else signal.SIGINT  # exit 128 + the signal
+        click.echo(f"odms-data: interrupted ({signal.Signals(signum).name}); rerun the same command to "
+                   f"resume {run} from its last checkpoint (iteration {at})", err=True)
+        ctx.exit(128 + signum)
     shown.close()
     if s.started_at >= iterations:
         click.echo(f"{run}: the run is complete ({iterations} iterations); --overwrite trains it again")

@@ -19,7 +19,7 @@ from ..evaluation.ground_truth import (
 )
 from ..evaluation.vosde import DEFAULT_N_OBS
 from ..evaluation.vosde import vosde as run_vosde
-from ..outputs import check_new_file, write_text
+from ..outputs import check_replaceable, write_text
 from ..protocol import FAMILIES, split_order
 from ..store.reader import open_store
 from . import echo_json
@@ -71,10 +71,10 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
     if plot:
         from ..evaluation.error_plots import plot_format
 
-        check_new_file(plot, overwrite, "--plot")
+        check_replaceable(plot, overwrite, option="--plot")
         plot_format(plot)  # before scoring: matplotlib is there and knows the suffix
     if entry:
-        check_new_file(entry, overwrite, "--entry", (".json",))
+        check_replaceable(entry, overwrite, option="--entry", suffixes=(".json",))
     stores = find_stores(data_locations(data))
     truths = {split: load_truth(path) for split, path in stores.items()}
     preds = read_predictions(predictions, max_rows=sum(len(t.example_ids) for t in truths.values()))
@@ -126,7 +126,7 @@ def vosde(stores, data, n_obs, output, overwrite, as_json):
     """
     from ..evaluation.predictions import write_predictions
 
-    check_new_file(output, overwrite, "-o", (".csv",))
+    check_replaceable(output, overwrite, option="-o", suffixes=(".csv",))
     paths = []
     found = None
     for s in stores:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 import numpy as np
 
-from ..outputs import check_new_file
+from ..outputs import check_replaceable
 from ..store.reader import open_store
 from . import echo_json
 from .progress import progress
@@ -134,7 +134,7 @@ def show(store, example_id, output, overwrite):
     """
     from ..publish.contact_sheet import contact_sheet, image_format, save_image
 
-    check_new_file(output, overwrite, "-o")
+    check_replaceable(output, overwrite, option="-o")
     image_format(output)
     with open_store(store) as s:
         sheet = contact_sheet(s.example(example_id))

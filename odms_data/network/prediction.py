@@ -15,7 +15,7 @@ import torch
 
 from ..errors import InputError
 from ..evaluation.predictions import write_predictions
-from ..outputs import check_new_file
+from ..outputs import check_replaceable
 from ..protocol import split_order
 from . import odn
 from .odn import ODN
@@ -66,7 +66,7 @@ def predict(
 ) -> tuple[int, TrainConfig, int]:
     """Write the predictions file (schemas/PREDICTIONS.md) of the run's `which` checkpoint for every
     example of `stores` ({split: path}); returns (rows, the run's config, the checkpoint's iteration)."""
-    check_new_file(output, overwrite, "-o", (".csv",))  # before the work, and again when written
+    check_replaceable(output, overwrite, option="-o", suffixes=(".csv",))  # before the work, and when written
     dev = pick_device(device)
     model, config, iteration = load_trained(folder, which, dev)
     rows: list[tuple[str, str, float]] = []

@@ -8,13 +8,16 @@
 
 Checkpoints, the configuration and the plot are written to a `.partial` sibling, flushed and
 renamed into place (outputs.replaced_via_partial), so an interruption or a full disk leaves the
-previous complete file and no sibling.
+previous complete file and no sibling. A run is written under the lock `RUN.lock`, and a folder is
+a run only when its config.json is the one odms-data wrote (`RUN_KIND`): `--overwrite` replaces
+nothing else.
 """
 
 from __future__ import annotations
 
 import csv
 import json
+import os
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, fields
@@ -23,7 +26,7 @@ from typing import IO, Any
 
 from .._version import __version__
 from ..errors import InputError
-from ..outputs import replaced_via_partial
+from ..outputs import Kind, replaced_via_partial
 from ..simulate.params import PRESETS
 from ..store.manifests import load_manifest, split_names
 from .variants import variant
@@ -94,6 +97,15 @@ def _splits_of_seed(seed: int) -> list[str]:
     return [m.name for m in manifests if m.generator and m.generator.get("seed") == seed]
 
 
+def _not_a_run(path: Path) -> str | None:
+    if path.exists() and not path.is_dir():
+        return "exists and is not a folder; give a new folder for the run"
+    return None
+
+
+RUN_KIND = Kind("training run", lambda path: None)  # for the lock; RunFolder.check: what may be replaced
+
+
 class RunFolder:
     """A run's folder; `create` makes or reopens one for a config, `open` reads a finished one."""
 
@@ -104,16 +116,23 @@ class RunFolder:
         return self.path / name
 
     def is_run(self) -> bool:
-        return self.file(CONFIG).is_file()
+        """Whether the folder holds a run odms-data wrote: its config.json, a regular file, names
+        odms-data and holds a configuration (a web app's config.json is not one)."""
+        path = self.file(CONFIG)
+        if path.is_symlink() or not path.is_file() or path.stat().st_size > 1 << 20:
+            return False
+        try:
+            d = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError, UnicodeDecodeError, RecursionError):
+            return False
+        return (isinstance(d, dict) and isinstance(d.get("odms_data"), str)
+                and isinstance(d.get("config"), dict))
 
     def config(self) -> TrainConfig:
         if not self.is_run():
-            raise InputError(f"{self.path}: not a training run (no {CONFIG}); see `odms-data train`")
-        try:
-            d = json.loads(self.file(CONFIG).read_text(encoding="utf-8"))
-        except (ValueError, UnicodeDecodeError) as e:
-            raise InputError(f"{self.file(CONFIG)}: not readable JSON ({e})") from None
-        return TrainConfig.from_json(d.get("config", {}))
+            raise InputError(f"{self.path}: not a training run (no {CONFIG} written by odms-data); "
+                             "see `odms-data train`")
+        return TrainConfig.from_json(json.loads(self.file(CONFIG).read_text(encoding="utf-8"))["config"])
 
     def check(self, config: TrainConfig, overwrite: bool) -> bool:
         """Whether the folder can hold a run of `config`: True when it holds one to resume
@@ -155,7 +174,8 @@ class RunFolder:
             out = csv.writer(f, lineterminator="\n")
             out.writerow(CURVE_COLUMNS)
             out.writerows([r[c] for c in CURVE_COLUMNS] for r in kept)
-        with open(path, "a", newline="", encoding="utf-8") as f:
+        fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_NOFOLLOW)  # the file just written
+        with open(fd, "a", newline="", encoding="utf-8") as f:
             yield _appender(csv.writer(f, lineterminator="\n"), f)
 
 

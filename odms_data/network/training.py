@@ -11,6 +11,7 @@ n_obs, batch size, b), so a run resumed from last.pt sees exactly the batches it
 
 from __future__ import annotations
 
+import io
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -23,11 +24,11 @@ from torch.utils.data import DataLoader
 from ..errors import InputError
 from ..evaluation.metrics import percent_errors
 from ..loaders.torch_loader import StreamDataset
-from ..outputs import replaced_via_partial
+from ..outputs import output_lock, replaced_via_partial
 from ..simulate.params import PRESETS, GeneratorParams
 from . import odn
 from .odn import ODN
-from .run_folder import BEST, LAST, TRAIN, VAL, AddRow, RunFolder, TrainConfig
+from .run_folder import BEST, LAST, RUN_KIND, TRAIN, VAL, AddRow, RunFolder, TrainConfig
 from .runtime import (
     Batch,
     outputs_and_depths,
@@ -112,8 +113,12 @@ class Validation:
 
 
 def _save(path: Path, content: dict) -> None:
-    with replaced_via_partial(path) as partial:
-        torch.save(content, partial)
+    """Write a checkpoint: serialised in memory first, so that a full disk is an OSError (which
+    outputs.py makes one line) and not torch's RuntimeError."""
+    buffer = io.BytesIO()
+    torch.save(content, buffer)
+    with replaced_via_partial(path) as partial, open(partial, "xb") as f:
+        f.write(buffer.getbuffer())
 
 
 def train(
@@ -125,8 +130,14 @@ def train(
     overwrite: bool = False,
     report: Callable[[Status], None] = lambda s: None,
 ) -> Status:
-    """Train (or resume) the run at `path`; `workers` processes make the stream's batches.
-    Returns the final status; a run that is already complete returns at once."""
+    """Train (or resume) the run at `path`, under its lock; `workers` processes make the stream's
+    batches. Returns the final status; a run that is already complete returns at once."""
+    with output_lock(path, RUN_KIND):
+        return _train(path, config, workers, device, overwrite, report)
+
+
+def _train(path: str | Path, config: TrainConfig, workers: int, device: str | None, overwrite: bool,
+           report: Callable[[Status], None]) -> Status:
     folder, v, dev = RunFolder(path), variant(config.model), pick_device(device)
     status = Status(0, config.iterations, config.batch_size, 0, 0.0, str(dev))
     saved = read_checkpoint(folder.file(LAST)) if folder.check(config, overwrite) else {}

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ..outputs import atomic_folder
+from ..outputs import Kind, atomic_folder
 from ..store.digest import check_recorded_digest
 from ..store.format import ARRAYS
 from ..store.reader import Store, open_store
@@ -125,6 +125,9 @@ def _not_an_export(path: Path) -> str | None:
     return None
 
 
+EXPORT = Kind("export", _not_an_export)
+
+
 def export_hub(
     stores: Sequence[str],
     out_dir: str,
@@ -158,7 +161,7 @@ def export_hub(
         licence = licence or licence_of([s.attrs for s in opened])
         for path, s in zip(stores, opened, strict=True):  # the card publishes each store's digest
             check_recorded_digest(s, path)
-        with atomic_folder(target, overwrite=overwrite, foreign=_not_an_export) as partial:
+        with atomic_folder(target, EXPORT, overwrite=overwrite) as partial:
             exported = [_write_split(s, partial, examples_per_file, progress) for s in opened]
             title, attrs = name or target.name, [s.attrs for s in opened]
             (partial / "README.md").write_text(dataset_card(title, attrs, exported, licence))

@@ -128,9 +128,11 @@ class ZarrBackend(Backend):
         import zarr
 
         self.path = path
+        # a local store is created in the fresh folder outputs.Partial made, whose marker must stay
+        zarr_mode = "a" if mode == "w" and not is_url(path) else mode
         try:
             self.group = zarr.open_group(
-                store=str(path), mode=mode, zarr_format=3, storage_options=storage_options(path)
+                store=str(path), mode=zarr_mode, zarr_format=3, storage_options=storage_options(path)
             )
         except OSError:
             if mode == "w":

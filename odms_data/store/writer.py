@@ -3,9 +3,9 @@
 A store is complete only when its `odms` attribute says `complete: true`, which `commit` writes
 last; for local paths the finished store is also flushed to disk and renamed into place, so an
 interrupted write leaves at most a `.partial` sibling that the next run removes. Stores at URLs
-(no rename) rely on the attribute alone. The rules are those of every output (outputs.py): an
-existing path is refused unless `overwrite`, and even then only an odms-data store or an empty
-folder is replaced; a failed write removes what it wrote and names the path.
+(no rename) rely on the attribute alone. The rules are those of every output, which outputs.py
+owns; this module only says what a store is (`STORE`): an existing path is refused unless
+`overwrite`, and even then only an odms-data store or an empty folder is replaced.
 """
 
 from __future__ import annotations
@@ -19,9 +19,9 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError, StoreError, StoreExistsError
+from ..errors import InputError, StoreError, StoreExistsError, StoreLockedError
 from ..interrupts import uninterrupted
-from ..outputs import DISK_FULL, fsync_tree, move_into_place, output_lock, remove, write_error
+from ..outputs import DISK_FULL, Kind, Partial, check_replaceable, output_lock, refuse_existing, write_error
 from .backends import HDF5_MAGIC, Backend, detect_format, is_url, open_backend
 from .format import ARRAYS, ATTRS_KEY, StoreAttrs, arrays_per, encode_strings, format_of_name, shape_of
 from .masks import FrameStats, packed_width
@@ -57,9 +57,8 @@ class Layout:
 
 
 def _not_a_store(path: Path) -> str | None:
-    """What is at `path` when it is neither an odms-data store nor an empty folder, else None."""
-    if path.is_symlink():
-        return "is a symbolic link"
+    """What is at `path` when it is neither an odms-data store nor an empty folder, else None
+    (outputs.check_replaceable refuses a symbolic link before asking)."""
     if path.is_dir():
         entries = sorted(p.name for p in path.iterdir())
         if not entries:
@@ -89,18 +88,7 @@ def _not_a_store(path: Path) -> str | None:
     return "is a file that is not an odms-data store"
 
 
-def check_new_store(path: str, overwrite: bool) -> None:
-    """Refuse to write a store at `path` when something is there, unless `overwrite` and it is an
-    odms-data store or an empty folder."""
-    target = Path(path)
-    if not (target.exists() or target.is_symlink()):
-        return
-    if not overwrite:
-        raise StoreExistsError(f"{path}: already exists; pass --overwrite to replace it")
-    what = _not_a_store(target)
-    if what:
-        raise StoreExistsError(f"{path}: {what}; --overwrite replaces only an odms-data store or an "
-                               "empty folder, so move it away or choose another output")
+STORE = Kind("store", _not_a_store, StoreExistsError, StoreLockedError)
 
 
 def _check_suffix(path: str, fmt: str) -> None:
@@ -128,7 +116,8 @@ class StoreWriter:
         self.format = fmt or detect_format(self.path)
         self.overwrite = overwrite
         self.local = not is_url(self.path)
-        self.partial = self.path + ".partial" if self.local else self.path
+        self._partial = Partial(self.path, folder=self.format == "zarr", kind=STORE) if self.local else None
+        self.partial = str(self._partial.path) if self._partial else self.path
         self.backend: Backend | None = None
         self.arrays: dict = {}
         self.layout: Layout | None = None
@@ -141,10 +130,10 @@ class StoreWriter:
             _check_new_url_store(self.path, self.overwrite)
             return self
         with ExitStack() as held:
-            held.enter_context(output_lock(self.path, "store"))
-            check_new_store(self.path, self.overwrite)
+            held.enter_context(output_lock(self.path, STORE))
+            check_replaceable(self.path, self.overwrite, STORE)
             try:
-                remove(self.partial)
+                self._partial.make()  # type: ignore[union-attr]  # local
             except OSError as e:
                 raise write_error(self.path, e) from None
             self._held = held.pop_all()
@@ -159,9 +148,10 @@ class StoreWriter:
                     except Exception:
                         if exc is None:
                             raise
-                if self.local:
-                    remove(self.partial)
-        if isinstance(exc, OSError) and (exc.errno in DISK_FULL or _inside(exc.filename, self.partial)):
+                if self._partial is not None:
+                    self._partial.discard()
+        where = str(self._partial.folder) if self._partial else self.path
+        if isinstance(exc, OSError) and (exc.errno in DISK_FULL or _inside(exc.filename, where)):
             raise write_error(self.path, exc) from exc
 
     # --- content -----------------------------------------------------------------------
@@ -246,11 +236,9 @@ class StoreWriter:
             backend, _ = self._created()
             backend.write_attrs(attrs.to_json())
             backend.close()
-            if self.local:
-                target, partial = Path(self.path), Path(self.partial)
-                fsync_tree(partial)
-                check_new_store(self.path, self.overwrite)  # again: something may have come meanwhile
-                move_into_place(partial, target)
+            if self._partial is not None:
+                check_replaceable(self.path, self.overwrite, STORE)  # again: something may have come
+                self._partial.commit()
             self._committed = True
             return self.path
 
@@ -260,7 +248,7 @@ def _inside(filename: object, folder: str) -> bool:
 
 
 def _check_new_url_store(url: str, overwrite: bool) -> None:
-    """`check_new_store` for a URL: what is there is read with fsspec."""
+    """`outputs.check_replaceable` for a URL: what is there is read with fsspec."""
     try:
         from fsspec.core import url_to_fs
 
@@ -270,21 +258,19 @@ def _check_new_url_store(url: str, overwrite: bool) -> None:
                          f"({e}); see docs/DISTRIBUTED.md") from None
     except ValueError as e:
         raise InputError(f"{url}: not a URL odms-data can write to ({e})") from None
-    if not fs.exists(root):
-        return
-    if not overwrite:
-        raise StoreExistsError(f"{url}: already exists; pass --overwrite to replace it")
-    entries = fs.ls(root, detail=False)
-    if not entries:
-        return
-    try:
-        meta = json.loads(fs.cat_file(f"{root.rstrip('/')}/zarr.json"))
-        ours = isinstance(meta.get("attributes", {}).get(ATTRS_KEY), dict)
-    except (OSError, ValueError, AttributeError):
-        ours = False
-    if not ours:
-        raise StoreExistsError(f"{url}: holds {len(entries)} entries that are not an odms-data store; "
-                               "--overwrite replaces only an odms-data store, so choose another output")
+
+    def foreign() -> str | None:
+        entries = fs.ls(root, detail=False)
+        if not entries:
+            return None
+        try:
+            meta = json.loads(fs.cat_file(f"{root.rstrip('/')}/zarr.json"))
+            ours = isinstance(meta.get("attributes", {}).get(ATTRS_KEY), dict)
+        except (OSError, ValueError, AttributeError):
+            ours = False
+        return None if ours else f"holds {len(entries)} entries that are not an odms-data store"
+
+    refuse_existing(url, fs.exists(root), overwrite, foreign, STORE)
 
 
 def _fit(matrix: np.ndarray, width: int, what: str) -> np.ndarray:
