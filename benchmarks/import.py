@@ -31,8 +31,8 @@ import cv2
 import numpy as np
 from results_json import machine, save
 
-from odms_data.benchmark import OFFICIAL_SPLITS as SPLITS
 from odms_data.importers.release import scan_split
+from odms_data.protocol import OFFICIAL_SPLITS as SPLITS
 from odms_data.store.reader import open_store
 
 REPO = Path(__file__).resolve().parents[1]

@@ -18,7 +18,7 @@ import numpy as np
 
 from odms_data.simulate.object_model import sample_example
 from odms_data.simulate.params import preset
-from odms_data.simulate.render import render_masks
+from odms_data.simulate.render import reference_masks
 from odms_data.simulate.shrink import resize_masks
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -38,8 +38,8 @@ def main() -> None:
         iou, rel_area, rel_exact, rel_exact_shrunk, scale_diff, empty = [], [], [], [], [], 0
         for index in range(args.examples):
             spec = sample_example(params, 123, index)
-            full = render_masks(spec, params)
-            direct = render_masks(spec, params, SIZE).astype(bool)
+            full = reference_masks(spec, params)
+            direct = reference_masks(spec, params, SIZE).astype(bool)
             shrunk = resize_masks(full, SIZE).astype(bool)
             exact = np.maximum(resize_masks(full, SIZE, coverage=True).sum(axis=(1, 2)), 1e-9)
             a_d, a_s = direct.sum(axis=(1, 2)), shrunk.sum(axis=(1, 2))

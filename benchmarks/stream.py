@@ -7,7 +7,7 @@ and with 1 and 2 worker processes, and a store read through each loader.
 INTER_AREA, as float32 covered fractions (the default transform); "uint8" the same fractions
 rounded (Transform(rounded=True)); "direct" draws uint8 masks straight at 112x112
 (GeneratedExamples(direct=True)). The baseline, measured in the same run, is
-the naive streaming path: draw each mask at 480x640 with render.render_masks and shrink it to
+the naive streaming path: draw each mask at 480x640 with render.reference_masks and shrink it to
 112x112. Timing starts once the batches asked for before the first one arrived have come too
 (1 + 2 x the workers or threads, the most any loader here has under way at the start): every
 worker has then started. A spawned worker loaded its kernels, about half a CPU-second each, which,
@@ -40,7 +40,7 @@ from odms_data.loaders.sources import collate
 from odms_data.simulate.generate_store import generate
 from odms_data.simulate.object_model import sample_example
 from odms_data.simulate.params import GeneratorParams
-from odms_data.simulate.render import render_masks
+from odms_data.simulate.render import reference_masks
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import _results  # noqa: E402
@@ -84,7 +84,7 @@ def naive(batch_size: int, n_batches: int):
         out = []
         for i in range(b * batch_size, (b + 1) * batch_size):
             spec = sample_example(PARAMS, 0, i)
-            out.append(t(render_masks(spec, PARAMS), spec.z, spec.z[0]))
+            out.append(t(reference_masks(spec, PARAMS), spec.z, spec.z[0]))
         yield collate(out)
 
 

@@ -1,4 +1,4 @@
-"""Examples/s of the PyTorch coverage renderer (loaders/torch_render.py) on a device, against the
+"""Examples/s of the PyTorch coverage renderer (simulate/torch_render.py) on a device, against the
 CPU renderer (batch_render.render_shrunk, one process) measured in the same run.
 
     python benchmarks/torch_render.py [--device cuda] [--batch-size 512] [--batches 8]
@@ -20,10 +20,10 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from odms_data.loaders.torch_render import render_coverage
 from odms_data.simulate.batch_render import render_shrunk
 from odms_data.simulate.object_model import sample_example
 from odms_data.simulate.params import GeneratorParams
+from odms_data.simulate.torch_render import render_coverage
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import _results  # noqa: E402

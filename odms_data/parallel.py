@@ -39,7 +39,7 @@ Item = TypeVar("Item")
 Handle = TypeVar("Handle")
 Result = TypeVar("Result")
 
-uninterrupted = threading.Lock()  # held by a worker around work an exit must not cut in two
+work_lock = threading.Lock()  # held by a worker around work an exit must not cut in two
 WORK_PER_WORKER_S = 1.0  # the least work, in CPU-seconds, a worker is started for (workers_for)
 WARM_START = "odms_data.simulate.warm_start"  # what the fork server imports, by name: no import edge
 
@@ -127,7 +127,7 @@ def _start_worker(initializer: Callable[..., None] | None, initargs: tuple[Any, 
 
 def _exit_with(parent: multiprocessing.process.BaseProcess) -> None:
     parent.join()  # returns when the parent's end of the sentinel pipe closes, i.e. it has exited
-    uninterrupted.acquire()  # e.g. a shared memory block created but not yet registered for cleanup
+    work_lock.acquire()  # e.g. a shared memory block created but not yet registered for cleanup
     os._exit(1)
 
 

@@ -7,10 +7,18 @@ import math
 import numpy as np
 
 from odms_data.store.format import StoreAttrs
-from odms_data.store.masks import pack, stats_of
+from odms_data.store.masks import FrameStats, pack
 from odms_data.store.writer import Layout, StoreWriter
 
 SIZE = 64
+
+
+def stats_of(masks: np.ndarray) -> FrameStats:
+    """Statistics of a (k, H, W) stack of binary masks, one mask at a time (FrameStats.set)."""
+    stats = FrameStats.empty(len(masks))
+    for i, mask in enumerate(masks):
+        stats.set(i, mask)
+    return stats
 
 
 def square(area: int) -> np.ndarray:

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 from hypothesis import settings
 
-from odms_data.benchmark import OFFICIAL_SPLITS
+from odms_data.protocol import OFFICIAL_SPLITS
 
 # The property-based tests draw the same examples in every run, so that a run's verdict is the
 # code's and not the draw's (a new failure is found by changing the code or the tests, not by luck).

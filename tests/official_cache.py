@@ -3,7 +3,7 @@
 A cache entry is the release's data/ folder and its eight imported stores, in
 ~/.cache/odms-data/test-stores/<key>/ (`ODMS_TEST_CACHE` names another folder). The key is the
 store format's version, the archive's sha256 and a digest of the code that decides the stores'
-content (odms_data/importers/, odms_data/store/, odms_data/benchmark.py), so a change to any of
+content (odms_data/importers/, odms_data/store/, odms_data/protocol.py), so a change to any of
 them imports anew instead of testing stale stores. An entry is built in a `.partial` sibling and
 renamed into place complete; its files are made read-only, so a test that writes into them fails
 instead of spoiling later runs. A `files.json` lists every file's size and, for the stores, its
@@ -26,7 +26,7 @@ from pathlib import Path
 from odms_data.store.format import FORMAT_VERSION
 
 PACKAGE = Path(__file__).resolve().parents[1] / "odms_data"
-CONTENT_CODE = ("importers", "store", "benchmark.py")
+CONTENT_CODE = ("importers", "store", "protocol.py")
 LISTING = "files.json"
 UNUSED_DAYS = 7  # entries of other keys (older code, another archive) unused this long are removed
 

@@ -1,5 +1,6 @@
 """The package's layers: every import of an odms_data module points down, never up or sideways,
-nothing imports the package root, and importing the root (or asking for help) stays light."""
+no modules import each other in a loop, nothing imports the package root, and importing the root
+(or asking for help) stays light."""
 
 from __future__ import annotations
 
@@ -15,10 +16,10 @@ PACKAGE = Path(odms_data.__file__).resolve().parent
 # the rank of each top-level module and folder; a module may import lower ranks and its own folder
 LAYERS = {
     "_version": 0, "errors": 0,
-    "benchmark": 1, "extras": 1, "resources": 1, "paths": 1, "shown_text": 1, "parallel": 1, "outputs": 1,
+    "protocol": 1, "extras": 1, "resources": 1, "paths": 1, "shown_text": 1, "parallel": 1, "outputs": 1,
     "interrupts": 1,
     "store": 2,
-    "simulate": 3, "importers": 3, "evaluation": 3,
+    "simulate": 3, "importers": 3, "evaluation": 3, "publish": 3,
     "loaders": 4,
     "network": 5,
     "cli": 6,
@@ -78,6 +79,53 @@ def test_every_import_points_down():
     assert not problems, "\n".join(problems)
 
 
+def _module(path: Path) -> str:
+    dotted = path.relative_to(PACKAGE.parent).with_suffix("").as_posix().replace("/", ".")
+    return dotted.removesuffix(".__init__")
+
+
+def _graph() -> dict[str, set[str]]:
+    """module -> the modules it imports (lazy and type-checking ones included; `from pkg import
+    name` counts as importing pkg.name when that is a module, else pkg)."""
+    modules = {_module(p): p for p in PACKAGE.rglob("*.py")}
+
+    def known(target: str) -> str:
+        while target not in modules:
+            target = target.rpartition(".")[0]
+        return target
+
+    return {m: {known(t) for _, t in _imports(p)} - {m} for m, p in modules.items()}
+
+
+def _loops(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The loops of `graph`: one list of modules each (a module on a loop, then the path back)."""
+    loops, done = [], set()
+    for start in sorted(graph):
+        stack, seen = [(start, [start])], {start}
+        while stack:
+            m, path = stack.pop()
+            for t in sorted(graph.get(m, ())):
+                if t == start:
+                    loops.append(path)
+                elif t not in seen and t not in done:
+                    seen.add(t)
+                    stack.append((t, [*path, t]))
+        done.add(start)
+    return loops
+
+
+def test_no_modules_import_each_other_in_a_loop():
+    loops = _loops(_graph())
+    assert not loops, "\n".join(" -> ".join([*loop, loop[0]]) for loop in loops)
+
+
+def test_the_loop_check_sees_a_loop():
+    assert _loops({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert _loops({"a": {"b"}, "b": set()}) == []
+    graph = _graph()
+    assert "odms_data.store.format" in graph["odms_data.store.reader"]
+
+
 def test_the_layering_check_sees_relative_lazy_upward_and_sideways_imports():
     code = "import os\ndef f():\n    from ..loaders import sources\n    from . import masks\n"
     found = {m for _, m in _imports(PACKAGE / "store" / "probe.py", code + "    import odms_data\n")}
@@ -86,7 +134,7 @@ def test_the_layering_check_sees_relative_lazy_upward_and_sideways_imports():
     assert {"odms_data._version", "odms_data.errors"} <= cli
     assert _violation("odms_data.store.reader", "odms_data.loaders.sources")  # up
     assert _violation("odms_data.simulate.render", "odms_data.importers.plan")  # sideways
-    assert _violation("odms_data.benchmark", "odms_data.parallel")  # sideways at the root
+    assert _violation("odms_data.protocol", "odms_data.parallel")  # sideways at the root
     assert _violation("odms_data.cli.progress", "odms_data")  # the root
     assert _violation("odms_data.store.reader", "odms_data.store.masks") is None
     assert _violation("odms_data.loaders.sources", "odms_data.simulate.render") is None

@@ -25,9 +25,9 @@ from odms_data.network.checkpoint import Checkpoint
 from odms_data.network.run_folder import RUN_KIND, RunFolder, TrainConfig
 from odms_data.network.training import _save, train
 from odms_data.outputs import MARKER, NAME_MAX, output_lock, replaced_via_partial, sibling, write_text
+from odms_data.publish.contact_sheet import save_image
 from odms_data.simulate.generate_store import generate
 from odms_data.simulate.params import PRESETS
-from odms_data.store.contact_sheet import save_image
 from odms_data.store.reader import open_store
 
 Writer = Callable[[Path, bool], None]  # (output, overwrite)

@@ -172,9 +172,6 @@ class OdmsGroup(click.Group):
             ctx.exit(3)
 
 
-OVERWRITE_HELP = "Replace an existing output (only a file, or a store or empty folder for a store)."
-
-
 @click.group(cls=OdmsGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="odms-data")
 def main() -> None:

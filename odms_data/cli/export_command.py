@@ -33,7 +33,7 @@ def export(stores, output, name, licence, examples_per_file, overwrite, as_json)
       odms-data export stores/*-val.zarr -o odms-val --name "ODMS validation"
     """
     optional("pyarrow", "odms-data export")  # before the stores are read
-    from ..store.hub_export import export_hub
+    from ..publish.hub_export import export_hub
 
     total = 0
     for path in stores:

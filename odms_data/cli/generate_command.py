@@ -82,6 +82,7 @@ def generate(split_name, count, preset, seed, n_obs, params, store_split, output
       odms-data generate -n 2560000 --scheduler tcp://head:8786 -o s3://lab/odms/train.zarr
     """
     from ..simulate.generate_store import generate as generate_store
+    from ..store.format import store_path
     from ..store.manifests import check_against_manifest
 
     if scheduler and workers is not None:
@@ -104,7 +105,7 @@ def generate(split_name, count, preset, seed, n_obs, params, store_split, output
     gen_params = merged_params(preset, overrides)
     store_split = store_split or "generated"
     if output is None:
-        output = f"{store_split}.h5" if fmt == "hdf5" else f"{store_split}.zarr"
+        output = str(store_path(".", store_split, "hdf5" if fmt == "hdf5" else "zarr"))
     with progress(count, f"generating {output}") as update:
         attrs = generate_store(
             output, count, gen_params, seed or 0, split=store_split, preset=preset, fmt=fmt,

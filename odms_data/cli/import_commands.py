@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import click
 
-from ..benchmark import OFFICIAL_SPLITS
 from ..errors import InputError
 from ..importers.plan import DEFAULT_THRESHOLD
 from ..importers.result import ImportResult
@@ -16,6 +15,7 @@ from ..importers.synthia_protocol import (
     Selection,
     parse_classes,
 )
+from ..protocol import OFFICIAL_SPLITS
 from . import echo_json, echo_text, one_line
 from .progress import Bars
 

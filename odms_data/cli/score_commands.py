@@ -7,7 +7,6 @@ from pathlib import Path
 
 import click
 
-from ..benchmark import FAMILIES
 from ..errors import InputError
 from ..evaluation.ground_truth import (
     DEFAULT_DATA,
@@ -15,6 +14,7 @@ from ..evaluation.ground_truth import (
 )
 from ..evaluation.vosde import DEFAULT_N_OBS
 from ..outputs import check_replaceable, write_text
+from ..protocol import FAMILIES
 from . import echo_json, echo_text
 from .progress import Bars, progress
 
@@ -52,7 +52,7 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
     """
     from ..evaluation.evaluate import Evaluation
     from ..evaluation.leaderboard import entry_from_report
-    from ..evaluation.score_tables import render_markdown, render_text
+    from ..evaluation.score_tables import render_text, report_markdown
 
     if as_json and markdown:
         raise InputError("give at most one of --json and --markdown")
@@ -73,7 +73,7 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
     if as_json:
         echo_json(report.to_json())
     elif markdown:
-        echo_text(render_markdown(report), nl=False)
+        echo_text(report_markdown(report), nl=False)
     else:
         echo_text(render_text(report), nl=False)
     if plot:

@@ -135,7 +135,7 @@ def show(store, example_id, output, crop, overwrite):
       odms-data show sim-val.zarr sim-val/000042 -o sheet.png
       odms-data show sim-val.zarr sim-val/000042 --crop -o object.png
     """
-    from ..store.contact_sheet import contact_sheet, image_format, save_image
+    from ..publish.contact_sheet import contact_sheet, image_format, save_image
 
     check_replaceable(output, overwrite, option="-o")
     image_format(output)

@@ -10,8 +10,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..benchmark import split_order
 from ..errors import InputError
+from ..protocol import split_order
 from ..store.reader import open_store
 from .ground_truth import SplitTruth, data_locations, find_stores, load_truth, stores_by_split, verify_truth
 from .predictions import Predictions, read_predictions, write_predictions

@@ -2,7 +2,7 @@
 
 The data folders are `--data DIR` (repeatable; a store path works too), else the folders in
 the environment variable ODMS_DATA (separated by ':'), else ~/.cache/odms-data. Every store
-there (`*.zarr`, `*.h5`, `*.hdf5`, generated or imported) serves the split its attributes
+there (`*.zarr`, `*.h5`, `*.hdf5`, `*.hdf`, generated or imported) serves the split its attributes
 name, and its example ids start with `<split>/`.
 
 Scoring reads the labels only. Before a leaderboard entry records a store's digest,
@@ -21,12 +21,12 @@ import numpy as np
 
 from ..errors import DigestMismatchError, InputError, StoreError
 from ..store.digest import check_recorded_digest
+from ..store.format import format_of_name
 from ..store.manifests import check_against_manifest, load_manifest, split_names
 from ..store.reader import open_store
 
 ENV_VAR = "ODMS_DATA"
 DEFAULT_DATA = "~/.cache/odms-data"
-STORE_SUFFIXES = (".zarr", ".h5", ".hdf5")
 
 
 def data_locations(given: Sequence[str] = ()) -> list[Path]:
@@ -40,7 +40,7 @@ def data_locations(given: Sequence[str] = ()) -> list[Path]:
 
 
 def _is_store(path: Path) -> bool:
-    return path.suffix.lower() in STORE_SUFFIXES and not path.name.endswith(".partial")
+    return format_of_name(path) is not None and not path.name.endswith(".partial")
 
 
 def find_stores(locations: Iterable[Path]) -> dict[str, Path]:

@@ -17,8 +17,8 @@ from pathlib import Path
 from typing import Any
 
 from .._version import __version__
-from ..benchmark import ABS_UNITS, FAMILIES, OFFICIAL_DOMAINS, official_name
 from ..errors import InputError
+from ..protocol import ABS_UNITS, FAMILIES, OFFICIAL_DOMAINS, official_name
 from ..resources import resource_dir
 from ..shown_text import markdown_link, markdown_text
 from .scoring import ScoreReport

@@ -11,8 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..benchmark import ABS_UNITS, FAMILIES, OFFICIAL_DOMAINS, official_name
 from ..errors import StoreError
+from ..protocol import ABS_UNITS, FAMILIES, OFFICIAL_DOMAINS, official_name
 
 
 def percent_errors(pred: np.ndarray, truth: np.ndarray) -> np.ndarray:
@@ -60,7 +60,7 @@ def score_split(split: str, domain: str, pred: np.ndarray, truth: np.ndarray, to
         )
 
 
-def family_all(scores: list[SplitScore]) -> dict[str, float]:
+def all_by_family(scores: list[SplitScore]) -> dict[str, float]:
     """{family: All} for each family whose four official splits are all scored in full."""
     full = {official_name(s.split, s.domain): s for s in scores if not s.partial}
     out = {}

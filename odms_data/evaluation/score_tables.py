@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ..benchmark import FAMILIES
+from ..protocol import FAMILIES
 from .scoring import ScoreReport
 
 
@@ -40,7 +40,7 @@ def render_text(report: ScoreReport) -> str:
     return "\n".join(lines + _footer(report) + _banner(report)) + "\n"
 
 
-def render_markdown(report: ScoreReport) -> str:
+def report_markdown(report: ScoreReport) -> str:
     lines = [f"> {b.lstrip('! ')}" for b in _banner(report)]
     lines += ["| split | n | mean % error | median % error | mean abs error |", "|---|---:|---:|---:|---:|"]
     for s in report.scores:

@@ -7,9 +7,9 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from ..benchmark import split_order
+from ..protocol import split_order
 from .ground_truth import SplitTruth
-from .metrics import SplitScore, family_all, percent_errors, score_split
+from .metrics import SplitScore, all_by_family, percent_errors, score_split
 from .predictions import Predictions, check_against
 
 
@@ -64,7 +64,7 @@ def score(preds: Predictions, truths: dict[str, SplitTruth], *, allow_partial: b
         scores.append(s)
         errors[split] = (truth[keep], percent_errors(pred, truth[keep]))
     return ScoreReport(
-        predictions=preds.path, rows=len(f), scores=scores, all=family_all(scores),
+        predictions=preds.path, rows=len(f), scores=scores, all=all_by_family(scores),
         partial=any(s.partial for s in scores), unlabelled_ignored=ignored,
         digests={s.split: truths[s.split].digest for s in scores}, errors=errors,
     )

@@ -28,8 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..benchmark import evenly_spaced
 from ..errors import InputError
+from ..protocol import evenly_spaced
 from ..store.reader import Store
 
 DEFAULT_N_OBS = 10

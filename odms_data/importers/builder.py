@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ..store.digest import StoreDigest, example_digest
+from ..store.digest import content_digest
 from ..store.format import (
     StoreAttrs,
     d1_problems,
@@ -78,20 +78,16 @@ def build_store(
     )
     with StoreWriter(str(out), fmt, overwrite=overwrite) as w:
         w.create(layout)
+        sink = w.mask_sink()
         tasks = [
-            FrameTask(w.partial, w.format, s, plan.masks[s : s + fps],
-                      plan.z[s : s + fps], plan.depth[s : s + fps], (H, W), plan.threshold, fpc, collect_all)
+            FrameTask(sink, s, plan.masks[s : s + fps],
+                      plan.z[s : s + fps], plan.depth[s : s + fps], (H, W), plan.threshold, collect_all)
             for s in range(0, F, fps)
         ]
-        fd, area = _write_frames(plan, w, workers, tasks, fpc, collect_all, progress)
+        fd, area = _write_frames(plan, w, workers, tasks, collect_all, progress)
 
         def digest_with(ids: list[str]) -> str:
-            digest = StoreDigest(H, W, E)
-            digest.update(
-                example_digest(ids[e], plan.sources[e], plan.d1[e], fd[row[row >= 0]].tobytes())
-                for e, row in enumerate(plan.frame_index)
-            )
-            return digest.hexdigest()
+            return content_digest(H, W, plan.frame_index, fd, ids, plan.sources, plan.d1)
 
         attrs = StoreAttrs(
             split=plan.split, domain=plan.domain, image_size=(H, W),
@@ -126,7 +122,7 @@ def _check_as_readers_do(plan: Plan, ids: list[str], attrs: StoreAttrs) -> None:
 
 
 def _write_frames(
-    plan: Plan, w: StoreWriter, workers: Workers, tasks: list[FrameTask], fpc: int, collect_all: bool,
+    plan: Plan, w: StoreWriter, workers: Workers, tasks: list[FrameTask], collect_all: bool,
     progress: Callable[[int], None] | None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Decode and write every frame; the frames' digests and mask areas, or BadFiles."""
@@ -146,8 +142,7 @@ def _write_frames(
             fd[r.start : stop] = r.digests
             area[r.start : stop] = r.stats.area
             w.write_frames(r.start, plan.z[r.start : stop], plan.depth[r.start : stop], r.stats)
-            for c, chunk in enumerate(r.deflated_chunks):
-                w.write_mask_chunk(r.start + c * fpc, chunk)
+            w.receive_masks(r.start, r.returned_masks)
             if progress:
                 progress(stop - r.start)
     if failures:

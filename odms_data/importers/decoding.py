@@ -22,7 +22,7 @@ from ..errors import InputError
 from ..parallel import cores, ordered_map, worker_pool
 from ..store.digest import frame_digests
 from ..store.masks import FrameStats, pack, packed_width
-from ..store.writer import write_shard_masks
+from ..store.shard_writer import MaskSink
 from .plan import MaskSource
 
 Item = TypeVar("Item")
@@ -31,17 +31,15 @@ Result = TypeVar("Result")
 
 @dataclass
 class FrameTask:
-    """Frame rows [start, start + len(masks)) of the store being written at `path`."""
+    """Frame rows [start, start + len(masks)) of the store being written, their masks through `sink`."""
 
-    path: str
-    fmt: str
+    sink: MaskSink
     start: int
     masks: Sequence[MaskSource]
     z: np.ndarray
     depth: np.ndarray
     size: tuple[int, int]  # (height, width) every mask must have, checked before it is decoded
     threshold: int
-    chunk: int  # frames per mask chunk (HDF5 chunks are padded to it)
     collect_all: bool
 
 
@@ -50,7 +48,7 @@ class FrameResult:
     start: int
     stats: FrameStats = field(default_factory=lambda: FrameStats.empty(0))  # both set when no file failed
     digests: np.ndarray = field(default_factory=lambda: np.empty((0, 32), np.uint8))
-    deflated_chunks: list[bytes] = field(default_factory=list)
+    returned_masks: list[bytes] = field(default_factory=list)  # for StoreWriter.receive_masks
     failures: list[tuple[int, str]] = field(default_factory=list)
 
 
@@ -80,7 +78,7 @@ def run_frames(task: FrameTask) -> FrameResult:
     if result.failures:
         return result
     result.stats, result.digests = stats, frame_digests(packed, task.z, task.depth)
-    result.deflated_chunks = write_shard_masks(task.path, task.fmt, task.start, packed, task.chunk)
+    result.returned_masks = task.sink.write_packed(task.start, packed)
     return result
 
 

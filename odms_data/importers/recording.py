@@ -17,9 +17,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..benchmark import protocol_windows
 from ..errors import InputError
 from ..paths import inside
+from ..protocol import protocol_windows
+from ..store.format import store_path
 from ..store.oddity import SKIPPED, Oddity
 from .builder import Importer, Progress
 from .decoding import Workers
@@ -232,7 +233,7 @@ def import_recording(
     mask_dir, positions = Path(mask_dir), Path(positions)
     _check_options(mask_dir, threshold, n_obs, windows, d1)
     if out is None:
-        out = Path(mask_dir.resolve().name + (".h5" if fmt == "hdf5" else ".zarr"))
+        out = store_path(".", mask_dir.resolve().name, "hdf5" if fmt == "hdf5" else "zarr")
     out = Path(out)
     name = store_name(name, out, mask_dir.resolve().name, "recording")
     files, z, depth, skipped = read_positions(positions, mask_dir, skip_bad)

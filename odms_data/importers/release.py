@@ -21,10 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..benchmark import OFFICIAL_SPLITS, ROBOT_FRAMES, ROBOT_N_OBS, ROBOT_WINDOWS, protocol_windows
 from ..errors import DigestMismatchError, InputError, OutputExistsError
 from ..paths import inside
-from ..store.format import StoreAttrs
+from ..protocol import OFFICIAL_SPLITS, ROBOT_FRAMES, ROBOT_N_OBS, ROBOT_WINDOWS, protocol_windows
+from ..store.format import StoreAttrs, store_path
 from ..store.manifests import check_against_manifest, load_manifest, split_names
 from ..store.oddity import SKIPPED, Oddity
 from .builder import Importer, Progress
@@ -241,11 +241,10 @@ def import_release(
     names = list(splits or OFFICIAL_SPLITS)
     _check_request(data_dir, out_dir, names, fmt)
     scans = {name: scan_split(data_dir, name, skip_bad) for name in names}
-    suffix = ".zarr" if fmt == "zarr" else ".h5"
     out: list[ImportResult] = []
     with Workers(workers) as pool:
         for name in names:
-            path = out_dir / f"{name}{suffix}"
+            path = store_path(out_dir, name, fmt)
             source = SplitImporter(name, *scans[name], path, verify, skip_bad)
             attrs = source.write(path, fmt, pool, label=name, overwrite=overwrite, progress=progress)
             out.append(ImportResult(str(path), name, attrs))

@@ -24,12 +24,12 @@ from typing import cast
 
 import numpy as np
 
-from ..parallel import uninterrupted
+from ..parallel import work_lock
 
-Layout = dict[str, tuple[tuple[int, ...], str, int]]  # key -> shape, dtype, byte offset in the block
+BlockLayout = dict[str, tuple[tuple[int, ...], str, int]]  # key -> shape, dtype, byte offset in the block
 _ALIGN = 64
 HEADER = _ALIGN  # bytes at the start of a block before its arrays: the flags below
-BUSY, ATTACHED, RETIRED = 0, 1, 2  # header bytes of a block a DataLoader worker owns (WorkerBlocks)
+BUSY, RETIRED = 0, 2  # header bytes of a block a DataLoader worker owns (WorkerBlocks)
 _ATTACHED: dict[str, SharedMemory] = {}  # blocks this worker has mapped, by name
 
 
@@ -80,12 +80,12 @@ class Arena:
         offset = a.ctypes.data - self.address
         return offset if 0 <= offset and offset + a.nbytes <= self.block.size else None
 
-    def finish(self, batch: dict[str, np.ndarray]) -> tuple[str, Layout]:
+    def finish(self, batch: dict[str, np.ndarray]) -> tuple[str, BlockLayout]:
         """The block holding `batch` and where each array lies in it."""
         offsets = {key: o for key, a in batch.items() if (o := self._offset(a)) is not None}
         if self.block is not None and len(offsets) == len(batch):
             return self.block.name, {k: (a.shape, a.dtype.str, offsets[k]) for k, a in batch.items()}
-        with uninterrupted:  # created and registered with the resource tracker, or not at all
+        with work_lock:  # created and registered with the resource tracker, or not at all
             block = _Block(create=True, size=HEADER + sum(_aligned(a.nbytes) for a in batch.values()))
         _ATTACHED[block.name] = block
         layout, offset = {}, HEADER
@@ -96,7 +96,7 @@ class Arena:
         return block.name, layout
 
 
-def _views(buf: memoryview, layout: Layout, release, *args) -> dict[str, np.ndarray]:
+def _views(buf: memoryview, layout: BlockLayout, release, *args) -> dict[str, np.ndarray]:
     """The arrays of `layout` viewing a block's `buf`; `release(*args)` is called once they are all gone."""
     sizes = {k: int(np.prod(shape)) * np.dtype(dt).itemsize for k, (shape, dt, _) in layout.items()}
     end = max((off + sizes[k] for k, (_, _, off) in layout.items()), default=HEADER)
@@ -134,7 +134,7 @@ class BlockPool:
                 self.blocks[name] = _Block(name=name)
             return self.blocks[name]
 
-    def take(self, name: str, layout: Layout, lent: str | None) -> dict[str, np.ndarray]:
+    def take(self, name: str, layout: BlockLayout, lent: str | None) -> dict[str, np.ndarray]:
         """The batch in block `name` as arrays viewing it; the block is free again once they are
         all gone."""
         return _views(_buffer(self._mapped(name, lent)), layout, self._release, name)
@@ -188,7 +188,7 @@ class SharedBatch:
     """A batch in a worker's block, on its way to the main process: `rebuild(name, layout)` runs
     there when it is unpickled (received_arrays, or a function that wraps it)."""
 
-    def __init__(self, name: str, layout: Layout, rebuild) -> None:
+    def __init__(self, name: str, layout: BlockLayout, rebuild) -> None:
         self.name, self.layout, self.rebuild = name, layout, rebuild
 
     def __reduce__(self):
@@ -268,7 +268,7 @@ _RECEIVED: dict[str, _Mapping] = {}  # main process: workers' blocks mapped here
 _received_lock = threading.Lock()
 
 
-def received_arrays(name: str, layout: Layout) -> dict[str, np.ndarray]:
+def received_arrays(name: str, layout: BlockLayout) -> dict[str, np.ndarray]:
     """In the main process: the batch a worker sent in block `name`, as arrays viewing it."""
     with _received_lock:
         block = _RECEIVED.get(name)

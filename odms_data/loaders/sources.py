@@ -133,7 +133,7 @@ class GeneratedExamples:
     (params, seed, index, transform, direct).
 
     By default the masks are exactly those of a generated store read through the same transform
-    (full-size masks shrunk with INTER_AREA), drawn without a full-size frame (render.render_shrunk).
+    (full-size masks shrunk with INTER_AREA), drawn without a full-size frame (batch_render.render_shrunk).
     `direct=True` draws the contour straight at the transform's size instead (the generator's own
     small-size rendering): faster, but its masks are larger; see docs/LOADERS.md.
     """

@@ -24,7 +24,7 @@ import numpy as np
 from ..errors import InputError
 from ..extras import missing
 from ..simulate.params import GeneratorParams
-from .shared_batches import Layout, received_arrays, worker_blocks
+from .shared_batches import BlockLayout, received_arrays, worker_blocks
 from .sources import STANDARD, GeneratedExamples, StoreExamples, stream_indices
 from .transforms import PAPER_TRANSFORM, Transform
 
@@ -113,6 +113,6 @@ class StreamDataset(IterableDataset):
             yield blocks.send(arena, self.examples.batch(indices, arena.empty), received_tensors)
 
 
-def received_tensors(name: str, layout: Layout) -> dict[str, torch.Tensor]:
+def received_tensors(name: str, layout: BlockLayout) -> dict[str, torch.Tensor]:
     """In the main process: a worker's batch (shared_batches.SharedBatch) as tensors viewing its block."""
     return to_tensors(received_arrays(name, layout))

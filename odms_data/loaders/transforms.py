@@ -23,8 +23,8 @@ from typing import Any
 import cv2
 import numpy as np
 
-from ..benchmark import evenly_spaced
 from ..errors import InputError
+from ..protocol import evenly_spaced
 from ..simulate.shrink import resize_masks
 from .targets import labels
 
@@ -52,7 +52,7 @@ def distances(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def radial_template() -> np.ndarray:
     """The authors' 224x224 8-bit radial image: round(255 * (1 - r / (112 sqrt 2))), clipped at
     0, r the distance of pixel (x, y) from pixel (112, 112). It is their radial2D.png pixel for
-    pixel (tests/loaders/test_loaders_transforms.py)."""
+    pixel (tests/loaders/test_transforms.py)."""
     c = TEMPLATE_SIZE // 2
     y, x = np.mgrid[:TEMPLATE_SIZE, :TEMPLATE_SIZE]
     r = np.hypot(y - c, x - c)

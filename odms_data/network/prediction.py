@@ -7,72 +7,21 @@ loaders.targets.depth, exactly as in training's validation.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import torch
-from torch.utils.data import DataLoader
 
-from ..benchmark import split_order
 from ..errors import InputError
 from ..evaluation.predictions import write_predictions
-from ..loaders.targets import depth
-from ..loaders.torch_loader import StoreDataset
 from ..outputs import check_replaceable
-from ..store.reader import open_store
+from ..protocol import split_order
 from . import odn
-from .checkpoint import Checkpoint
 from .odn import ODN
 from .run_folder import BEST, LAST, PER_SET, RunFolder, TrainConfig
-from .variants import Variant, variant
-
-EVAL_BATCH = 256  # examples a forward pass in evaluation
-Batch = dict[str, torch.Tensor]  # a loader batch: network inputs and labels by name
-
-
-def pick_device(name: str | None) -> torch.device:
-    """The device called `name`, or the first GPU when there is one, else the CPU."""
-    if name is None:
-        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
-    try:
-        device = torch.device(name)
-    except RuntimeError:
-        raise InputError(f"device '{name}' is not a device name (cpu, cuda, cuda:1, ...)") from None
-    if device.type not in ("cpu", "cuda"):  # meta, xla, ...: no place to train or predict on
-        raise InputError(f"device {name}: not a device odms-data computes on; use cpu, cuda or cuda:N")
-    if device.type == "cuda" and not torch.cuda.is_available():
-        raise InputError(f"device {name}: PyTorch sees no CUDA device on this machine")
-    if device.type == "cuda" and (device.index or 0) >= torch.cuda.device_count():
-        raise InputError(f"device {name}: this machine has {torch.cuda.device_count()} CUDA device(s)")
-    return device
-
-
-def outputs_and_depths(model: torch.nn.Module, v: Variant, batch: Batch) -> tuple[torch.Tensor, torch.Tensor]:
-    """The network's outputs for a batch (on the model's device) and the depths they mean (float64:
-    d1 = s span / (1 - s) magnifies float32 rounding where the scale s is near 1)."""
-    out = model(*odn.inputs(batch, v))
-    return out, depth(v.label, out.detach().double(), batch["dz"][:, -1].double())
-
-
-def to_device(batch: Batch, device: torch.device) -> Batch:
-    return {k: t.to(device, non_blocking=True) for k, t in batch.items()}
-
-
-def store_batches(path: str, config: TrainConfig, workers: int, pin: bool) -> Iterable[Batch]:
-    """The store's examples as network inputs, in row order, EVAL_BATCH at a time."""
-    dataset = StoreDataset(path, odn.transform(config.n_obs, config.radial))
-    return DataLoader(dataset, batch_size=EVAL_BATCH, num_workers=workers, pin_memory=pin)
-
-
-def read_checkpoint(path: Path) -> Checkpoint:
-    """A checkpoint, on the CPU (the random states must be there; load_state_dict moves weights
-    and Adam's state to their module's device)."""
-    try:
-        saved = torch.load(path, map_location="cpu", weights_only=True)
-    except Exception as e:  # a truncated or foreign file: torch raises many kinds
-        raise InputError(f"{path}: not a readable checkpoint ({type(e).__name__}: {e})") from None
-    return Checkpoint.from_json(saved, str(path))
+from .runtime import outputs_and_depths, pick_device, read_checkpoint, store_batches, store_dataset, to_device
+from .variants import variant
 
 
 def load_trained(
@@ -105,16 +54,17 @@ def predict_store(
 ) -> tuple[str, list[str], np.ndarray]:
     """(split, example ids, predicted d1) of every example of the store at `path`;
     `progress(split, examples done, examples)` after each batch."""
-    with open_store(path) as s:
+    dataset = store_dataset(path, config)  # the store opened once, its batches read from it
+    with dataset.examples.store as s:
         split, ids, n = s.attrs.split, s.example_ids, len(s)
-    v = variant(config.model)
-    d1 = np.empty(n)
-    done = 0
-    for batch in store_batches(path, config, workers, device.type == "cuda"):
-        _, d = outputs_and_depths(model, v, to_device(batch, device))
-        d1[batch["index"].numpy()] = d.cpu().numpy()
-        done += len(batch["index"])
-        progress(split, done, n)
+        v = variant(config.model)
+        d1 = np.empty(n)
+        done = 0
+        for batch in store_batches(dataset, workers, device.type == "cuda"):
+            _, d = outputs_and_depths(model, v, to_device(batch, device))
+            d1[batch["index"].numpy()] = d.cpu().numpy()
+            done += len(batch["index"])
+            progress(split, done, n)
     return split, ids, d1
 
 

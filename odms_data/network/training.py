@@ -27,12 +27,19 @@ from ..evaluation.metrics import percent_errors
 from ..loaders.torch_loader import StreamDataset
 from ..outputs import output_lock, replaced_via_partial
 from ..simulate.params import PRESETS, GeneratorParams
-from ..store.reader import open_store
 from . import odn
 from .checkpoint import Checkpoint
 from .odn import ODN
-from .prediction import Batch, outputs_and_depths, pick_device, read_checkpoint, store_batches, to_device
 from .run_folder import BEST, LAST, RUN_KIND, TRAIN, VAL, AddRow, RunFolder, TrainConfig, best_of
+from .runtime import (
+    Batch,
+    outputs_and_depths,
+    pick_device,
+    read_checkpoint,
+    store_batches,
+    store_dataset,
+    to_device,
+)
 from .variants import Variant, variant
 
 
@@ -96,15 +103,16 @@ class Validation:
         keep = ["masks", "radial", self.variant.distances, self.variant.label, "dz", "d1"]
         self.stores: dict[str, list[Batch]] = {}
         for path in config.val:
-            with open_store(path) as s:
+            dataset = store_dataset(path, config)  # the store opened once, its batches read from it
+            with dataset.examples.store as s:
                 split, labelled = s.attrs.split, int(np.isfinite(s.d1).sum())
-            if split in self.stores or split in (TRAIN, VAL):
-                raise InputError(f"{path}: a validation store of split '{split}' again or of a name the "
-                                 "curves use (train, val); give each split once, none named train or val")
-            if not labelled:
-                raise InputError(f"{path}: no labelled example (every d1 is NaN); it cannot validate")
-            batches = store_batches(path, config, workers, pin=device.type == "cuda")
-            self.stores[split] = [to_device({k: b[k] for k in keep if k in b}, device) for b in batches]
+                if split in self.stores or split in (TRAIN, VAL):
+                    raise InputError(f"{path}: a validation store of split '{split}' again or of a name the "
+                                     "curves use (train, val); give each split once, none named train or val")
+                if not labelled:
+                    raise InputError(f"{path}: no labelled example (every d1 is NaN); it cannot validate")
+                batches = store_batches(dataset, workers, pin=device.type == "cuda")
+                self.stores[split] = [to_device({k: b[k] for k in keep if k in b}, device) for b in batches]
 
     @torch.inference_mode()
     def __call__(self, model: ODN) -> dict[str, tuple[float, float]]:

@@ -1,9 +1,9 @@
 """Fast paths for masks at training size, for many examples at once, each pixel-exact against
 the slow way (render.py, shrink.py).
 
-- `render_masks`: what `render.render_masks(spec, params, size)` draws (the contour drawn
+- `render_masks`: what `render.reference_masks(spec, params, size)` draws (the contour drawn
   straight at the small size).
-- `render_shrunk`: what `resize_masks(render.render_masks(spec, params), size)` gives (the
+- `render_shrunk`: what `resize_masks(render.reference_masks(spec, params), size)` gives (the
   full-size mask shrunk with INTER_AREA, as a store read through the loaders), drawing only each
   object's canvas at full size and shrinking it with cv2's arithmetic (shrink.shrink_canvases).
 - `render_boxes`: what `render.render_frame` draws into each full-size frame and where (the
@@ -13,7 +13,7 @@ The per-frame arithmetic of `render.render_frame` is done once for all frames of
 in the same order of operations (so the same floats), and the frames' canvases are stacked as
 rows of one image where raster.draw_silhouettes draws them in one call. render_masks draws
 frames whose canvas leaves the image, or is perturbed, through render_frame.
-tests/loaders/test_loaders_transforms.py checks equality with the slow way."""
+tests/loaders/test_transforms.py checks equality with the slow way."""
 
 from __future__ import annotations
 
@@ -126,7 +126,7 @@ def render_masks(
     frames: np.ndarray | None = None,
     out: np.ndarray | None = None,
 ) -> np.ndarray:
-    """(examples, k, H, W) uint8 0/1: `render.render_masks(spec, params, size)[frames]` of each
+    """(examples, k, H, W) uint8 0/1: `render.reference_masks(spec, params, size)[frames]` of each
     example (frames default: all), written into `out` when given."""
     H, W = size or params.image_size
     frames = _frames(specs, frames)
@@ -208,7 +208,7 @@ def render_shrunk(
     coverage: bool = False,
     out: np.ndarray | None = None,
 ) -> np.ndarray:
-    """(examples, k, h, w): `resize_masks(render.render_masks(spec, params)[frames], size,
+    """(examples, k, h, w): `resize_masks(render.reference_masks(spec, params)[frames], size,
     coverage)` of each example, written into `out` when given.
 
     Each frame's canvas is drawn at full size and shrunk by shrink.shrink_canvases, which does

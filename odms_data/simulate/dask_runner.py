@@ -1,6 +1,6 @@
 """Running generation's shard tasks on a Dask cluster: `generate(..., scheduler=ADDRESS)`.
 
-The tasks are the ShardTasks of a local run, executed by the same `shard_task.run`, so the store and
+The tasks are the ShardTasks of a local run, executed by the same `shard_run.run`, so the store and
 its digest do not depend on the cluster. Each task writes its whole Zarr shard of `masks` in one
 store write; a task that raises is retried by Dask (`RETRIES`), one whose worker dies is rerun
 elsewhere (the scheduler's `allowed-failures`), and a rerun rewrites the whole shard. Results are
@@ -22,7 +22,8 @@ from .._version import __version__
 from ..errors import InputError, StoreError
 from ..extras import optional
 from ..parallel import ordered_map
-from .shard_task import ShardResult, ShardTask, run
+from .shard_run import run
+from .shard_task import ShardResult, ShardTask
 
 RETRIES = 3  # reruns of a task that raised
 CONNECT_TIMEOUT_S = 30
@@ -81,7 +82,7 @@ def run_tasks(
         return
     tasks = itertools.chain([first], tasks)
     with connect(address) as client:
-        check_workers(client, address, first.path)
+        check_workers(client, address, first.sink.path)
 
         def ahead() -> int:  # two tasks per worker thread, recounted as the cluster scales
             return max(4, 2 * sum(client.nthreads().values()))
@@ -95,7 +96,7 @@ def run_tasks(
                 return future.result()
             except Exception as e:
                 raise StoreError(
-                    f"{t.path}: shard of examples {t.start}-{t.stop - 1} failed on {address} "
+                    f"{t.sink.path}: shard of examples {t.start}-{t.stop - 1} failed on {address} "
                     f"after retries ({type(e).__name__}: {e})"
                 ) from e
 

@@ -8,7 +8,6 @@ shard size.
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable, Generator, Iterable, Iterator
 from concurrent.futures import Future
 from contextlib import closing
@@ -25,7 +24,8 @@ from ..store.manifests import SplitManifest, load_manifest
 from ..store.masks import packed_width
 from ..store.writer import Layout, StoreWriter
 from .params import DEFAULT_EXAMPLES_PER_SHARD, GENERATOR_VERSION, MAX_FRAMES, GeneratorParams
-from .shard_task import SOURCE, ShardResult, ShardTask, example_ids, run
+from .shard_run import run
+from .shard_task import SOURCE, ShardResult, ShardTask, example_ids
 
 Progress = Callable[[int], None]
 SHARD_BYTES = 2**28  # the most packed mask bytes one shard task holds
@@ -121,9 +121,9 @@ def generate(
     )
     with StoreWriter(path, fmt, overwrite=overwrite) as w:
         w.create(layout)
-        target = os.path.abspath(w.partial) if w.local else w.partial  # workers may have another cwd
+        sink = w.mask_sink()
         tasks = (  # made as they are run: a billion examples start at once
-            ShardTask(target, w.format, params, seed, split, count, s, min(s + eps, count))
+            ShardTask(sink, params, seed, split, count, s, min(s + eps, count))
             for s in range(0, count, eps)
         )
         if scheduler is None:
@@ -144,8 +144,7 @@ def generate(
                     r.start, frame_index, r.z[::n].copy(),
                     example_ids(split, count, r.start, r.stop), [SOURCE] * (r.stop - r.start),
                 )
-                for e, chunk in enumerate(r.deflated_chunks):
-                    w.write_mask_chunk(f0 + e * n, chunk)
+                w.receive_masks(f0, r.returned_masks)
                 digest.update(r.example_digests)
         attrs = StoreAttrs(
             split=split, domain="generated", image_size=(H, W),

@@ -53,7 +53,7 @@ def render_frame(
     return cx0, cy0, cx1, cy1
 
 
-def render_masks(
+def reference_masks(
     spec: ExampleSpec, params: GeneratorParams, size: tuple[int, int] | None = None
 ) -> np.ndarray:
     """(n, H, W) uint8 0/1 masks of an example, at params.image_size or at `size`."""

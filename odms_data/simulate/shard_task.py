@@ -1,4 +1,5 @@
-"""What one shard task of a generated store is and what it returns; shards.py runs it.
+"""What one shard task of a generated store is and what it returns; shards.py runs it (through
+shard_run.py).
 
 Light: the process that hands tasks out (to local workers or a Dask cluster) imports this, not
 the renderer, whose imports (Numba, OpenCV) it would pay for and never use.
@@ -11,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..store.masks import FrameStats
+from ..store.shard_writer import MaskSink
 from .params import GeneratorParams
 
 SOURCE = "generated"
@@ -24,10 +26,9 @@ def example_ids(split: str, count: int, start: int, stop: int) -> list[str]:
 
 @dataclass
 class ShardTask:
-    """Examples [start, stop) of a generated store, written into the store at `path`."""
+    """Examples [start, stop) of a generated store, their masks written through `sink`."""
 
-    path: str
-    fmt: str
+    sink: MaskSink  # where the masks go
     params: GeneratorParams
     seed: int
     split: str
@@ -43,11 +44,4 @@ class ShardResult:
     z: np.ndarray
     stats: FrameStats
     example_digests: list[bytes]
-    deflated_chunks: list[bytes] = field(default_factory=list)  # HDF5 only, one per example
-
-
-def run(task: ShardTask) -> ShardResult:
-    """shards.run_shard(task), the renderer imported where the task runs."""
-    from .shards import run_shard
-
-    return run_shard(task)
+    returned_masks: list[bytes] = field(default_factory=list)  # for StoreWriter.receive_masks

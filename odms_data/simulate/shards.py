@@ -16,7 +16,6 @@ import numpy as np
 
 from ..store.digest import example_digest, frame_tails, padded_frame_digests
 from ..store.masks import FrameStats, largest_region, packed_width
-from ..store.shard_writer import ShardChunks
 from .batch_render import FrameBoxes, render_boxes
 from .kernel import kernel
 from .object_model import ExampleSpec, sample_examples
@@ -41,7 +40,7 @@ def run_shard(task: ShardTask) -> ShardResult:
     stats = FrameStats.empty(len(z))
     digests = []
     ids = example_ids(task.split, task.count, task.start, task.stop)
-    chunks = ShardChunks(task.fmt, n)
+    chunks = task.sink.chunks()
     measured = np.empty((n, 5), np.int64)  # per frame: area, then the object's x0, y0, x1, y1
     with _buffer(n, H, W) as packed:
         for e, spec, boxes, b in _drawn(p, specs):
@@ -58,7 +57,7 @@ def run_shard(task: ShardTask) -> ShardResult:
             digests.append(example_digest(ids[e], SOURCE, spec.z[0], fd))
             _clear_rows(packed, y0, y1)
     result = ShardResult(task.start, task.stop, z, stats, digests)
-    result.deflated_chunks = chunks.write(task.path, task.start * n)
+    result.returned_masks = task.sink.write(task.start * n, chunks)
     return result
 
 

@@ -9,6 +9,7 @@ one drawn at training size as coverage and as 0/1 masks.
 
 from __future__ import annotations
 
+from ..store.shard_writer import MaskSink
 from .batch_render import render_masks, render_shrunk
 from .object_model import sample_examples
 from .params import PRESETS
@@ -21,7 +22,8 @@ TRAINING_SIZE = (112, 112)
 def warm() -> None:
     """Run each kernel once (Numba loads a kernel's machine code on its first call)."""
     params = PRESETS["perturb"]
-    run_shard(ShardTask("", "hdf5", params, 0, "warm", 1, 0, 1))  # HDF5: the chunks come back, unwritten
+    unwritten = MaskSink("", "hdf5", params.n_obs)  # HDF5: the chunks come back, unwritten
+    run_shard(ShardTask(unwritten, params, 0, "warm", 1, 0, 1))
     specs = sample_examples(params, 0, range(1))
     render_shrunk(specs, params, TRAINING_SIZE, None, True)
     render_shrunk(specs, params, TRAINING_SIZE, None, False)

@@ -4,6 +4,6 @@ Arrays and attributes (format.py), bit-packed masks and their statistics (masks.
 digest (digest.py), the Zarr and HDF5 backends (backends.py) and the fast reader of local Zarr
 shards (shard_reader.py), the atomic writer (writer.py), the reader, `open_store` (reader.py),
 validation (validate.py), Zarr <-> HDF5 conversion (convert.py), the split manifests of splits/
-(manifests.py) and contact sheets of an example (contact_sheet.py). Everything above this layer
+(manifests.py). Everything above this layer
 reads and writes stores through these modules; nothing here knows where examples come from.
 """

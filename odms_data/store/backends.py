@@ -1,6 +1,6 @@
 """The two storage backends, Zarr v3 (sharded) and HDF5, behind one small interface.
 
-Both hold the same arrays (odms_data.format) and the root attribute `odms`: a JSON object
+Both hold the same arrays (format.ARRAYS) and the root attribute `odms`: a JSON object
 in Zarr, a JSON string in HDF5 (HDF5 attributes cannot nest).
 """
 
@@ -8,14 +8,14 @@ from __future__ import annotations
 
 import io
 import json
+from abc import ABC, abstractmethod
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, ClassVar, Literal, Protocol
 
 from ..errors import StoreError
+from .format import format_of_name
 
-FORMATS = ("zarr", "hdf5")
 Mode = Literal["r", "r+", "w"]  # read, update, create
-HDF5_SUFFIXES = (".h5", ".hdf5", ".hdf")
 HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
 ZSTD_LEVEL = 3
 GZIP_LEVEL = 1
@@ -39,37 +39,66 @@ def detect_format(path: str) -> str:
     if local.is_file():
         with open(local, "rb") as f:
             return "hdf5" if f.read(8) == HDF5_MAGIC else "zarr"
-    return "hdf5" if local.suffix.lower() in HDF5_SUFFIXES else "zarr"
+    return format_of_name(local) or "zarr"
 
 
-class Backend:
+class StoreArray(Protocol):
+    """An array of an open store: zarr's and h5py's both slice like numpy."""
+
+    @property
+    def shape(self) -> tuple[int, ...]: ...
+
+    @property
+    def dtype(self) -> Any: ...
+
+    @property
+    def chunks(self) -> Any: ...
+
+    def __getitem__(self, key: Any) -> Any: ...
+
+    def __setitem__(self, key: Any, value: Any) -> None: ...
+
+
+class Backend(ABC):
     """An open store: named arrays that slice like numpy, plus the `odms` attribute."""
 
-    kind: str
+    kind: ClassVar[str]
+    # True: workers write whole shards of masks into the store themselves; False: they return the
+    # compressed chunks and the one writer stores them (`write_raw_chunk`)
+    workers_write_shards: ClassVar[bool]
 
-    def names(self) -> set[str]:
-        raise NotImplementedError
+    @abstractmethod
+    def __init__(self, path: str, mode: Mode) -> None: ...
 
-    def array(self, name: str) -> Any:
-        raise NotImplementedError
+    @abstractmethod
+    def names(self) -> set[str]: ...
 
-    def read_attrs(self) -> dict[str, Any] | None:
-        raise NotImplementedError
+    @abstractmethod
+    def array(self, name: str) -> StoreArray: ...
 
-    def write_attrs(self, attrs: dict[str, Any]) -> None:
-        raise NotImplementedError
+    @abstractmethod
+    def read_attrs(self) -> dict[str, Any] | None: ...
 
+    @abstractmethod
+    def write_attrs(self, attrs: dict[str, Any]) -> None: ...
+
+    @abstractmethod
     def create_array(
         self, name: str, shape: tuple[int, ...], dtype: Any, chunks: tuple[int, ...],
         shards: tuple[int, ...] | None = None,
-    ) -> Any:
-        raise NotImplementedError
+    ) -> StoreArray: ...
 
+    def write_raw_chunk(self, array: StoreArray, start: int, data: bytes) -> None:
+        """Store one already compressed chunk of `array` beginning at row `start` (backends whose
+        workers do not write shards)."""
+        raise NotImplementedError(f"{self.kind} workers write their shards themselves")
+
+    @abstractmethod
     def check(self) -> None:
         """Raise the error of a write that failed since the store was opened (see _FailSafeFile)."""
 
-    def close(self) -> None:
-        pass
+    @abstractmethod
+    def close(self) -> None: ...
 
 
 SETTLE_TIMEOUT_S = 60
@@ -93,6 +122,7 @@ def settle_zarr_io() -> None:
 
 class ZarrBackend(Backend):
     kind = "zarr"
+    workers_write_shards = True
 
     def __init__(self, path: str, mode: Mode) -> None:
         import zarr
@@ -131,6 +161,9 @@ class ZarrBackend(Backend):
 
     def write_attrs(self, attrs: dict[str, Any]) -> None:
         self.group.attrs.update({"odms": attrs})
+
+    def check(self) -> None:
+        """Nothing: zarr raises a failed write from the call that made it."""
 
     def close(self) -> None:
         settle_zarr_io()
@@ -176,6 +209,7 @@ class _FailSafeFile(io.FileIO):
 
 class Hdf5Backend(Backend):
     kind = "hdf5"
+    workers_write_shards = False
 
     def __init__(self, path: str, mode: Mode) -> None:
         import h5py
@@ -237,6 +271,9 @@ class Hdf5Backend(Backend):
             compression_opts=GZIP_LEVEL, fillvalue=0,
         )
 
+    def write_raw_chunk(self, array: StoreArray, start: int, data: bytes) -> None:
+        array.id.write_direct_chunk((start, *(0,) * (len(array.shape) - 1)), data)  # type: ignore[attr-defined]
+
     def check(self) -> None:
         if self._raw is not None and self._raw.failed is not None:
             raise self._raw.failed
@@ -258,10 +295,13 @@ def open_backend(path: str, mode: Mode = "r", fmt: str | None = None) -> Backend
         if not local.exists():
             raise StoreError(f"{path}: no such store")
         if local.is_file() and fmt == "zarr":  # a file without the HDF5 signature
-            what = ("not an HDF5 file (it lacks the HDF5 signature)" if local.suffix.lower() in HDF5_SUFFIXES
+            what = ("not an HDF5 file (it lacks the HDF5 signature)" if format_of_name(local) == "hdf5"
                     else "not a store (an odms-data store is a Zarr folder or an HDF5 file)")
             raise StoreError(f"{path}: {what}")
         if local.is_dir() and not (local / "zarr.json").exists():
             raise StoreError(f"{path}: not a Zarr v3 store (the folder has no zarr.json)")
-    return (ZarrBackend if fmt == "zarr" else Hdf5Backend)(str(path), mode)
+    return BACKENDS["zarr" if fmt == "zarr" else "hdf5"](str(path), mode)
+
+
+BACKENDS: dict[str, type[Backend]] = {"zarr": ZarrBackend, "hdf5": Hdf5Backend}
 

@@ -7,7 +7,7 @@ from collections.abc import Callable
 import numpy as np
 
 from .digest import BLOCK_FRAMES, check_recorded_digest
-from .masks import FrameStats
+from .format import arrays_per
 from .reader import open_store
 from .writer import Layout, StoreWriter
 
@@ -32,8 +32,8 @@ def convert(
         )
         with StoreWriter(dst, fmt, overwrite=overwrite) as w:
             w.create(layout)
-            w.write_frames(0, s.z, s.depth, FrameStats(s.area, s.largest_area, s.bbox))
-            w.write_examples(0, s.frame_index, s.d1, s.example_ids, s.sources)
+            for per in ("frame", "example"):
+                w.write_rows(per, 0, {a.name: s.checked(a.name) for a in arrays_per(per) if not a.sharded})
 
             def copy(start: int, block: np.ndarray) -> None:
                 w.write_masks(start, block)

@@ -8,7 +8,7 @@ from __future__ import annotations
 import hashlib
 import math
 import struct
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from functools import lru_cache
 from typing import TYPE_CHECKING
 
@@ -95,6 +95,20 @@ class StoreDigest:
         return "sha256:" + self._h.hexdigest()
 
 
+def content_digest(
+    height: int, width: int, frame_index: np.ndarray, frame_digests: np.ndarray,
+    ids: Sequence[str], sources: Sequence[str], d1: np.ndarray,
+) -> str:
+    """The store digest of examples (rows of `frame_index`, ids, sources, labels) over frames
+    whose `frame_digests` are known."""
+    digest = StoreDigest(height, width, len(frame_index))
+    digest.update(
+        example_digest(ids[i], sources[i], d1[i], frame_digests[row[row >= 0]].tobytes())
+        for i, row in enumerate(frame_index)
+    )
+    return digest.hexdigest()
+
+
 def recompute_digest(
     store: Store, visit: Callable[[int, np.ndarray], None] | None = None
 ) -> tuple[str, np.ndarray]:
@@ -113,11 +127,7 @@ def recompute_digest(
         fd[start:stop] = frame_digests(block, z[start:stop], depth[start:stop])
         if visit:
             visit(start, block)
-    digest = StoreDigest(store.height, store.width, store.n_examples)
-    digest.update(
-        example_digest(ids[i], sources[i], d1[i], fd[row[row >= 0]].tobytes()) for i, row in enumerate(fi)
-    )
-    return digest.hexdigest(), fd
+    return content_digest(store.height, store.width, fi, fd, ids, sources, d1), fd
 
 
 def check_recorded_digest(

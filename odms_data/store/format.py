@@ -7,6 +7,7 @@ from collections import Counter
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from functools import cache
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -22,21 +23,72 @@ ATTRS_KEY = "odms"
 UNITS = {"z": "m", "depth": "m", "d1": "m", "area": "px", "bbox": "px"}
 Z_ODDITY = "z-not-increasing"  # the oddity kind that excuses z not increasing (FORMAT.md)
 
-# name -> dtype; per-frame arrays have F rows, per-example arrays E rows.
-FRAME_ARRAYS = {
-    "masks": np.uint8,  # (F, H, ceil(W/8)) bit-packed, MSB first
-    "z": np.float64,  # (F,) camera position on the optical axis, m
-    "depth": np.float64,  # (F,) object depth, m; NaN where unknown
-    "area": np.int32,  # (F,) object pixels
-    "largest_area": np.int32,  # (F,) pixels of the largest 8-connected region
-    "bbox": np.int32,  # (F, 4) x0, y0, x1, y1 half-open; zeros when empty
-}
-EXAMPLE_ARRAYS = {
-    "frame_index": np.int64,  # (E, N) frame rows, z ascending, padded with -1 at the end
-    "d1": np.float64,  # (E,) depth at the closest frame, m; NaN when unlabelled
-    "example_id": np.uint8,  # (E, L) UTF-8, NUL padded
-    "source": np.uint8,  # (E, L) UTF-8, NUL padded
-}
+
+@dataclass(frozen=True)
+class Array:
+    """One array of a store. Its rows are the store's frames (F) or examples (E); `trailing` is
+    the rest of its shape, each a number or the name of a size (see FREE_SIZES)."""
+
+    name: str
+    dtype: type
+    per: str  # "frame" or "example"
+    trailing: tuple[int | str, ...] = ()
+    hub: tuple[str, str] | None = None  # the Hub column: (Croissant data type, description)
+    sharded: bool = False  # written whole shards at a time (masks), chunked inside each shard
+    text: bool = False  # NUL-padded UTF-8 strings, one per row (`encode_strings`)
+    pad: int = 0  # what fills a row's columns beyond those written
+
+
+# The sizes `trailing` may name: "height" and "packed_width" follow from the image size in the
+# attributes; the free ones are the writer's choice and need only be at least 1.
+FREE_SIZES = ("max_obs", "id_width", "source_width")
+
+# Every array of a store, in the order they are created and checked. Adding an array is one row
+# here and the code that computes it (which hands it to StoreWriter.write_rows).
+ARRAYS = {a.name: a for a in (
+    Array("masks", np.uint8, "frame", ("height", "packed_width"), sharded=True,  # bit-packed, MSB first
+          hub=("sc:Text", "each observation's binary mask, bit-packed: height rows of ceil(width / 8) "
+               "bytes, most significant bit first (numpy.packbits(mask, axis=-1))")),
+    Array("z", np.float64, "frame",  # camera position on the optical axis, m
+          hub=("sc:Float", "camera position (m) of each observation, ascending")),
+    Array("depth", np.float64, "frame",  # object depth, m; NaN where unknown
+          hub=("sc:Float", "object depth (m) at each observation; NaN where unknown")),
+    Array("area", np.int32, "frame", hub=("sc:Integer", "object pixels of each mask")),  # object pixels
+    Array("largest_area", np.int32, "frame"),  # pixels of the largest 8-connected region
+    Array("bbox", np.int32, "frame", (4,)),  # x0, y0, x1, y1 half-open; zeros when empty
+    Array("frame_index", np.int64, "example", ("max_obs",), pad=-1),  # frame rows, z ascending, -1 after
+    Array("d1", np.float64, "example",  # depth at the closest frame, m; NaN when unlabelled
+          hub=("sc:Float", "label: depth (m) at the closest observation, z_1; NaN when unlabelled")),
+    Array("example_id", np.uint8, "example", ("id_width",), text=True,
+          hub=("sc:Text", "the example's id, <split>/<name>")),
+    Array("source", np.uint8, "example", ("source_width",), text=True,
+          hub=("sc:Text", "where the example came from")),
+)}
+
+
+def arrays_per(per: str) -> list[Array]:
+    """The arrays with a row per frame (`per` "frame") or per example ("example"), in table order."""
+    return [a for a in ARRAYS.values() if a.per == per]
+
+
+def shape_of(a: Array, rows: int, sizes: dict[str, int]) -> tuple[int, ...]:
+    """The shape of array `a` with `rows` rows, its named sizes taken from `sizes`."""
+    return (rows, *(sizes[d] if isinstance(d, str) else d for d in a.trailing))
+
+
+# Each backend's file-name suffixes; the first is the one odms-data gives a store it names.
+SUFFIXES = {"zarr": (".zarr",), "hdf5": (".h5", ".hdf5", ".hdf")}
+
+
+def format_of_name(path: str | Path) -> str | None:
+    """The backend the name of `path` says ('zarr' or 'hdf5'), or None when its suffix says none."""
+    suffix = Path(path).suffix.lower()
+    return next((fmt for fmt, suffixes in SUFFIXES.items() if suffix in suffixes), None)
+
+
+def store_path(folder: str | Path, split: str, fmt: str) -> Path:
+    """Where odms-data puts the store of `split` in `folder` in backend `fmt`."""
+    return Path(folder) / f"{split}{SUFFIXES[fmt][0]}"
 
 
 @dataclass
@@ -98,22 +150,21 @@ def attribute_problems(d: Any) -> list[str]:
 
 def layout_problems(backend: Any, raw: dict[str, Any]) -> list[str]:
     """Arrays whose shape or dtype disagrees with the (schema-valid) attributes `raw`."""
-    F, E = raw["counts"]["frames"], raw["counts"]["examples"]
+    rows = {"frame": raw["counts"]["frames"], "example": raw["counts"]["examples"]}
     H, W = raw["image_size"]
-    expected = {
-        "masks": (F, H, packed_width(W)), "z": (F,), "depth": (F,), "area": (F,),
-        "largest_area": (F,), "bbox": (F, 4), "d1": (E,),
-    }
+    sizes = {"height": H, "packed_width": packed_width(W), **dict.fromkeys(FREE_SIZES, -1)}  # -1: free
     problems = []
-    for name, dtype in {**FRAME_ARRAYS, **EXAMPLE_ARRAYS}.items():
-        arr = backend.array(name)
-        shape = tuple(arr.shape)
-        if name in expected and shape != expected[name]:
-            problems.append(f"array '{name}' has shape {shape}, expected {expected[name]}")
-        elif name not in expected and (len(shape) != 2 or shape[0] != E or shape[1] < 1):
-            problems.append(f"array '{name}' has shape {shape}, expected ({E}, width >= 1)")
-        if np.dtype(arr.dtype) != np.dtype(dtype):
-            problems.append(f"array '{name}' has dtype {arr.dtype}, expected {np.dtype(dtype)}")
+    for a in ARRAYS.values():
+        arr = backend.array(a.name)
+        shape, want = tuple(arr.shape), shape_of(a, rows[a.per], sizes)
+        if -1 not in want and shape != want:
+            problems.append(f"array '{a.name}' has shape {shape}, expected {want}")
+        elif -1 in want and (len(shape) != len(want) or any(s < 1 if w == -1 else s != w
+                                                             for s, w in zip(shape, want, strict=True))):
+            text = ", ".join("width >= 1" if w == -1 else str(w) for w in want)
+            problems.append(f"array '{a.name}' has shape {shape}, expected ({text})")
+        if np.dtype(arr.dtype) != np.dtype(a.dtype):
+            problems.append(f"array '{a.name}' has dtype {arr.dtype}, expected {np.dtype(a.dtype)}")
     return problems
 
 

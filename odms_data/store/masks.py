@@ -74,11 +74,3 @@ def mask_stats(mask: np.ndarray) -> tuple[int, int, tuple]:
         return 0, 0, (0, 0, 0, 0)
     x, y, w, h = cv2.boundingRect(m)
     return area, largest_region(m[y : y + h, x : x + w], area), (x, y, x + w, y + h)
-
-
-def stats_of(masks: np.ndarray) -> FrameStats:
-    """Statistics of a (k, H, W) stack of binary masks."""
-    stats = FrameStats.empty(len(masks))
-    for i, mask in enumerate(masks):
-        stats.set(i, mask)
-    return stats

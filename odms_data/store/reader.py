@@ -6,15 +6,14 @@ import difflib
 import re
 from dataclasses import dataclass
 from functools import cached_property
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import numpy as np
 
 from ..errors import InputError, StoreError
 from .backends import Backend, open_backend
 from .format import (
-    EXAMPLE_ARRAYS,
-    FRAME_ARRAYS,
+    ARRAYS,
     StoreAttrs,
     d1_problems,
     decode_strings,
@@ -29,6 +28,7 @@ from .masks import packed_width, unpack
 from .shard_reader import ShardReader
 
 T = TypeVar("T")
+_CHECKED = {"example_id": "example_ids", "source": "sources"}  # the Store attributes of text arrays
 
 
 _NUMBERED = re.compile(r"(.*)/(\d+)")  # an example id ending in its number: split/000042
@@ -102,6 +102,12 @@ class Store:
     def raw(self, name: str) -> np.ndarray:
         """Array `name` as stored, unchecked (for `validate`, which reports every problem)."""
         return self._read(name)
+
+    def checked(self, name: str) -> Any:
+        """Array `name` after the format's rules for it (a text array as its strings); an array
+        the rules say nothing of, as stored."""
+        attribute = _CHECKED.get(name, name)
+        return getattr(self, attribute) if hasattr(type(self), attribute) else self._read(name)
 
     @cached_property
     def z(self) -> np.ndarray:
@@ -268,7 +274,7 @@ def open_store(path: str) -> Store:
             raise StoreError(
                 f"{path}: store is incomplete (an interrupted write?); re-run the command that made it"
             )
-        missing = sorted((set(FRAME_ARRAYS) | set(EXAMPLE_ARRAYS)) - backend.names())
+        missing = sorted(set(ARRAYS) - backend.names())
         if missing:
             raise StoreError(f"{path}: store lacks the array(s) {', '.join(missing)}")
         attrs = StoreAttrs.from_json(raw, str(path))

@@ -11,20 +11,17 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import StoreError
-from .shard_layout import ShardLayout
-
-MISSING = np.uint64(2**64 - 1)
+from .shard_layout import MISSING, ShardLayout, decode_index, index_bytes
 
 
 class ShardReader:
     def __init__(self, layout: ShardLayout) -> None:
-        import google_crc32c
         from numcodecs import Zstd
 
         self.layout, self.shape, self.chunk = layout, layout.shape, layout.chunk
         self.per_shard = layout.per_shard
         self.frame_bytes = int(np.prod(self.shape[1:]))
-        self._zstd, self._crc = Zstd(), google_crc32c.value
+        self._zstd = Zstd()
 
     @classmethod
     def open(cls, store_path: str) -> ShardReader | None:
@@ -38,12 +35,9 @@ class ShardReader:
         zeros = np.zeros(out_bytes, np.uint8)
         try:
             with open(path, "rb") as f:
-                n = 16 * self.per_shard
-                f.seek(-(n + 4), 2)
-                raw = f.read(n + 4)
-                if self._crc(raw[:n]) != int.from_bytes(raw[n:], "little"):
-                    raise StoreError(f"{path}: shard index checksum mismatch")
-                index = np.frombuffer(raw[:n], "<u8").reshape(-1, 2)[ks.start : ks.stop]
+                n = index_bytes(self.per_shard)
+                f.seek(-n, 2)
+                index = decode_index(f.read(n), path)[ks.start : ks.stop]
                 present = index[:, 0] != MISSING
                 if not present.any():
                     return [zeros] * len(ks)

@@ -5,7 +5,8 @@ array and a copy per inner chunk, and an asyncio task per chunk). A shard task k
 one by one, so it compresses each as soon as it is made and writes the shard's bytes at once:
 one file write for a local store (shard_layout.py; zarr is not even imported), one store call
 for a URL. zarr reads them as it reads its own (tests/store check it). HDF5 chunks are deflated
-the same way and handed to the single writer.
+the same way and handed back to the single writer. Workers reach the store through a `MaskSink`,
+which StoreWriter.mask_sink gives and StoreWriter.receive_masks completes.
 """
 
 from __future__ import annotations
@@ -13,13 +14,12 @@ from __future__ import annotations
 import os
 import threading
 import zlib
+from dataclasses import dataclass
 
 import numpy as np
 
-from .backends import GZIP_LEVEL, ZSTD_LEVEL, storage_options
-from .shard_layout import ShardLayout
-
-MISSING = 2**64 - 1  # offset and length of an absent inner chunk
+from .backends import BACKENDS, GZIP_LEVEL, ZSTD_LEVEL, storage_options
+from .shard_layout import ShardLayout, encode_index
 
 
 class ShardChunks:
@@ -48,8 +48,8 @@ class ShardChunks:
     def write(self, path: str, start: int) -> list[bytes]:
         """Zarr: store the shard that begins at frame `start` (a shard boundary) in one write,
         replacing whatever an interrupted earlier attempt left; returns []. HDF5: returns the
-        deflated chunks, for the single writer's `write_mask_chunk`."""
-        if self.fmt != "zarr":
+        deflated chunks, for the single writer's `receive_masks`."""
+        if not BACKENDS[self.fmt].workers_write_shards:
             return self.chunks
         layout = ShardLayout.of(path)
         if layout is not None:  # a local store: no zarr (its import is a third of a worker's start-up)
@@ -71,14 +71,33 @@ class ShardChunks:
         return []
 
 
-def shard_bytes(chunks: list[bytes], per_shard: int) -> bytes:
-    """A shard holding `chunks` as its first inner chunks (the rest absent): the chunks, then the
-    index of (offset, length) pairs as little-endian uint64 and its crc32c, little-endian."""
-    import google_crc32c
+@dataclass(frozen=True)
+class MaskSink:
+    """Where the workers put the masks of a store being written; picklable, so tasks carry it to
+    other processes. What `write` returns goes to the parent's StoreWriter.receive_masks."""
 
-    index = np.full((per_shard, 2), MISSING, "<u8")
-    lengths = np.array([len(c) for c in chunks], np.uint64)
-    index[: len(chunks), 1] = lengths
-    index[: len(chunks), 0] = np.cumsum(lengths) - lengths
-    raw = index.tobytes()
-    return b"".join([*chunks, raw, google_crc32c.value(raw).to_bytes(4, "little")])
+    path: str
+    fmt: str
+    frames_per_chunk: int
+
+    def chunks(self) -> ShardChunks:
+        """An empty shard, to `add` chunks to as they are made."""
+        return ShardChunks(self.fmt, self.frames_per_chunk)
+
+    def write(self, start: int, chunks: ShardChunks) -> list[bytes]:
+        """Store the shard beginning at frame `start` (a shard boundary) where the workers write
+        shards, replacing what an interrupted earlier attempt may have left; returns what is left
+        for the parent (the compressed chunks where they do not, else nothing)."""
+        return chunks.write(self.path, start)
+
+    def write_packed(self, start: int, packed: np.ndarray) -> list[bytes]:
+        """`write` a worker's whole shard of packed masks."""
+        chunks = self.chunks()
+        for c in range(0, len(packed), self.frames_per_chunk):
+            chunks.add(packed[c : c + self.frames_per_chunk])
+        return self.write(start, chunks)
+
+
+def shard_bytes(chunks: list[bytes], per_shard: int) -> bytes:
+    """A shard holding `chunks` as its first inner chunks (the rest absent), then its index."""
+    return b"".join([*chunks, encode_index([len(c) for c in chunks], per_shard)])

@@ -11,8 +11,7 @@ from ..errors import InputError, OdmsError, StoreError
 from .backends import open_backend
 from .digest import recompute_digest
 from .format import (
-    EXAMPLE_ARRAYS,
-    FRAME_ARRAYS,
+    ARRAYS,
     Z_ODDITY,
     attribute_problems,
     d1_problems,
@@ -60,7 +59,7 @@ def validate(path: str, progress: Callable[[int], None] | None = None) -> Report
         report.problems += [f"attributes {p}" for p in attribute_problems(raw)]
         if raw.get("complete") is not True:
             report.problems.append("store is incomplete (an interrupted write?)")
-        missing = sorted((set(FRAME_ARRAYS) | set(EXAMPLE_ARRAYS)) - backend.names())
+        missing = sorted(set(ARRAYS) - backend.names())
         if missing:
             report.problems.append(f"missing array(s): {', '.join(missing)}")
         if report.problems:

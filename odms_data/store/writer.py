@@ -15,16 +15,17 @@ import os
 from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ..errors import InputError, StoreError, StoreExistsError, StoreLockedError
 from ..interrupts import uninterrupted
 from ..outputs import DISK_FULL, Kind, Partial, check_replaceable, output_lock, refuse_existing, write_error
-from .backends import HDF5_MAGIC, HDF5_SUFFIXES, Backend, detect_format, is_url, open_backend
-from .format import ATTRS_KEY, EXAMPLE_ARRAYS, FRAME_ARRAYS, StoreAttrs, encode_strings
+from .backends import HDF5_MAGIC, Backend, detect_format, is_url, open_backend
+from .format import ARRAYS, ATTRS_KEY, StoreAttrs, arrays_per, encode_strings, format_of_name, shape_of
 from .masks import FrameStats, packed_width
-from .shard_writer import ShardChunks
+from .shard_writer import MaskSink
 
 
 @dataclass(frozen=True)
@@ -48,6 +49,12 @@ class Layout:
         if self.frames_per_shard % self.frames_per_chunk:
             raise InputError("frames_per_shard must be a multiple of frames_per_chunk")
 
+    @property
+    def sizes(self) -> dict[str, int]:
+        """The sizes the array table names (format.py)."""
+        return {"height": self.height, "packed_width": packed_width(self.width), "max_obs": self.max_obs,
+                "id_width": self.id_width, "source_width": self.source_width}
+
 
 def _not_a_store(path: Path) -> str | None:
     """What is at `path` when it is neither an odms-data store nor an empty folder, else None
@@ -64,7 +71,7 @@ def _not_a_store(path: Path) -> str | None:
         if not ours:
             return (f"is a folder of {len(entries)} entr{'y' if len(entries) == 1 else 'ies'} that is not "
                     f"an odms-data store (e.g. {entries[0]!r})")
-        others = [e for e in entries if e not in {"zarr.json", *FRAME_ARRAYS, *EXAMPLE_ARRAYS}]
+        others = [e for e in entries if e not in {"zarr.json", *ARRAYS}]
         if others:
             return f"is an odms-data store that also holds {others[0]!r}"
         return None
@@ -90,11 +97,11 @@ def _check_suffix(path: str, fmt: str) -> None:
         if fmt == "hdf5":
             raise InputError(f"{path}: HDF5 stores are local files; write a Zarr store to a URL")
         return
-    suffix = Path(path).suffix.lower()
-    if fmt == "zarr" and suffix in HDF5_SUFFIXES:
+    suffix, named = Path(path).suffix.lower(), format_of_name(path)
+    if fmt == "zarr" and named == "hdf5":
         raise InputError(f"{path}: the name says HDF5 ({suffix}) but the format asked for is zarr",
                          fix="name-zarr")
-    if fmt == "hdf5" and suffix == ".zarr":
+    if fmt == "hdf5" and named == "zarr":
         raise InputError(f"{path}: the name says Zarr (.zarr) but the format asked for is hdf5",
                          fix="name-hdf5")
 
@@ -153,29 +160,17 @@ class StoreWriter:
         with uninterrupted():
             self.layout = L = layout
             self.backend = b = open_backend(self.partial, "w", self.format)
-            F, E, fs, es = L.n_frames, L.n_examples, L.frames_per_shard, L.examples_per_chunk
-            pw = packed_width(L.width)
-            self.arrays = {
-                "masks": b.create_array(
-                    "masks", (F, L.height, pw), FRAME_ARRAYS["masks"], (L.frames_per_chunk, L.height, pw),
-                    shards=(fs, L.height, pw),
-                ),
-                "z": b.create_array("z", (F,), FRAME_ARRAYS["z"], (fs,)),
-                "depth": b.create_array("depth", (F,), FRAME_ARRAYS["depth"], (fs,)),
-                "area": b.create_array("area", (F,), FRAME_ARRAYS["area"], (fs,)),
-                "largest_area": b.create_array("largest_area", (F,), FRAME_ARRAYS["largest_area"], (fs,)),
-                "bbox": b.create_array("bbox", (F, 4), FRAME_ARRAYS["bbox"], (fs, 4)),
-                "frame_index": b.create_array(
-                    "frame_index", (E, L.max_obs), EXAMPLE_ARRAYS["frame_index"], (es, L.max_obs)
-                ),
-                "d1": b.create_array("d1", (E,), EXAMPLE_ARRAYS["d1"], (es,)),
-                "example_id": b.create_array(
-                    "example_id", (E, L.id_width), EXAMPLE_ARRAYS["example_id"], (es, L.id_width)
-                ),
-                "source": b.create_array(
-                    "source", (E, L.source_width), EXAMPLE_ARRAYS["source"], (es, L.source_width)
-                ),
-            }
+            rows = {"frame": L.n_frames, "example": L.n_examples}
+            per_chunk = {"frame": L.frames_per_shard, "example": L.examples_per_chunk}
+            for a in ARRAYS.values():
+                shape = shape_of(a, rows[a.per], L.sizes)
+                chunks = (per_chunk[a.per], *shape[1:])
+                if a.sharded:
+                    self.arrays[a.name] = b.create_array(
+                        a.name, shape, a.dtype, (L.frames_per_chunk, *shape[1:]), shards=chunks
+                    )
+                else:
+                    self.arrays[a.name] = b.create_array(a.name, shape, a.dtype, chunks)
 
     def _created(self) -> tuple[Backend, Layout]:
         if self.backend is None or self.layout is None:
@@ -187,38 +182,51 @@ class StoreWriter:
             self.arrays["masks"][start : start + len(packed)] = packed
             self._created()[0].check()
 
-    def write_mask_chunk(self, start: int, deflated: bytes) -> None:
-        """HDF5 only: store one already deflate-compressed mask chunk starting at frame `start`."""
+    def mask_sink(self) -> MaskSink:
+        """Where workers write the masks (picklable; local paths absolute: workers may have another cwd)."""
+        _, L = self._created()
+        return MaskSink(os.path.abspath(self.partial) if self.local else self.partial, self.format,
+                        L.frames_per_chunk)
+
+    def receive_masks(self, start: int, returned: list[bytes]) -> None:
+        """Store what a worker's `MaskSink.write` returned for its shard beginning at frame `start`."""
         with uninterrupted():
-            self.arrays["masks"].id.write_direct_chunk((start, 0, 0), deflated)
-            self._created()[0].check()
+            backend, L = self._created()
+            for c, chunk in enumerate(returned):
+                backend.write_raw_chunk(self.arrays["masks"], start + c * L.frames_per_chunk, chunk)
+            backend.check()
 
     def write_frames(
         self, start: int, z: np.ndarray, depth: np.ndarray, stats: FrameStats
     ) -> None:
-        with uninterrupted():
-            stop = start + len(z)
-            a = self.arrays
-            a["z"][start:stop] = z
-            a["depth"][start:stop] = depth
-            a["area"][start:stop] = stats.area
-            a["largest_area"][start:stop] = stats.largest_area
-            a["bbox"][start:stop] = stats.bbox
-            self._created()[0].check()
+        self.write_rows("frame", start, {"z": z, "depth": depth, "area": stats.area,
+                                         "largest_area": stats.largest_area, "bbox": stats.bbox})
 
     def write_examples(
         self, start: int, frame_index: np.ndarray, d1: np.ndarray, ids: list[str], sources: list[str]
     ) -> None:
+        self.write_rows("example", start, {"frame_index": frame_index, "d1": d1, "example_id": ids,
+                                           "source": sources})
+
+    def write_rows(self, per: str, start: int, columns: dict[str, Any]) -> None:
+        """Rows from `start` of every array per frame or per example (`per`) but the sharded masks,
+        by name: a text array as a list of strings, a narrower matrix padded with the array's `pad`."""
         with uninterrupted():
-            stop = start + len(d1)
-            _, L = self._created()
-            fi = np.full((len(d1), L.max_obs), -1, np.int64)
-            fi[:, : frame_index.shape[1]] = frame_index
-            a = self.arrays
-            a["frame_index"][start:stop] = fi
-            a["d1"][start:stop] = d1
-            a["example_id"][start:stop] = _fit(encode_strings(ids), L.id_width, "example id")
-            a["source"][start:stop] = _fit(encode_strings(sources), L.source_width, "source")
+            self._created()
+            names = [a.name for a in arrays_per(per) if not a.sharded]
+            if sorted(columns) != sorted(names):
+                raise StoreError(f"{self.path}: the {per} arrays are {', '.join(names)}, "
+                                 f"not {', '.join(columns)}")
+            for name, values in columns.items():
+                a, arr = ARRAYS[name], self.arrays[name]
+                width = arr.shape[1:]
+                if a.text:
+                    values = _fit(encode_strings(values), width[0], name.replace("_", " "))
+                elif width and np.shape(values)[1:] != width:
+                    padded = np.full((len(values), *width), a.pad, a.dtype)
+                    padded[:, : np.shape(values)[1]] = values
+                    values = padded
+                arr[start : start + len(values)] = values
             self._created()[0].check()
 
     def commit(self, attrs: StoreAttrs) -> str:
@@ -263,21 +271,6 @@ def _check_new_url_store(url: str, overwrite: bool) -> None:
         return None if ours else f"holds {len(entries)} entries that are not an odms-data store"
 
     refuse_existing(url, fs.exists(root), overwrite, foreign, STORE)
-
-
-def write_shard_masks(
-    path: str, fmt: str, start: int, packed: np.ndarray, frames_per_chunk: int
-) -> list[bytes]:
-    """Store a worker's whole shard of packed masks, starting at the shard boundary `start`.
-
-    Zarr: written afresh in one store write (shard_writer.py), replacing what an interrupted
-    earlier attempt may have left; returns []. HDF5 (one writer only): returns the deflated
-    chunks, zero-padded to full length, for `write_mask_chunk`.
-    """
-    chunks = ShardChunks(fmt, frames_per_chunk)
-    for c in range(0, len(packed), frames_per_chunk):
-        chunks.add(packed[c : c + frames_per_chunk])
-    return chunks.write(path, start)
 
 
 def _fit(matrix: np.ndarray, width: int, what: str) -> np.ndarray:

@@ -77,7 +77,7 @@ def test_generate_on_a_cluster_without_dask(tmp_path):
 
 @pytest.mark.parametrize("module,hidden,extra", [
     ("odms_data.loaders.torch_loader", "torch", "torch"),
-    ("odms_data.loaders.torch_render", "torch", "torch"),
+    ("odms_data.simulate.torch_render", "torch", "torch"),
     ("odms_data.loaders.tf_loader", "tensorflow", "tf"),
     ("odms_data.loaders.grain_loader", "grain", "jax"),
 ])

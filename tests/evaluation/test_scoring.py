@@ -21,7 +21,7 @@ from odms_data.evaluation.leaderboard import (
     render_markdown,
 )
 from odms_data.evaluation.metrics import SplitScore, percent_errors, score_split
-from odms_data.evaluation.metrics import family_all as report_all
+from odms_data.evaluation.metrics import all_by_family as report_all
 from odms_data.evaluation.predictions import HEADER
 from odms_data.resources import resource_dir
 

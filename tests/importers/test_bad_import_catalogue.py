@@ -1,5 +1,5 @@
 """More malformed recordings users really produce (issue 6's catalogue, with the BAD_CASES of
-test_import_recording and BAD_RELEASES of test_import_odms): bad ones get one line naming the
+test_import_recording and BAD_RELEASES of test_release): bad ones get one line naming the
 file (and line), exit 2 and no output; harmless variants import as intended."""
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ import shutil
 import cv2
 import numpy as np
 import pytest
-from test_import_odms import BAD_RELEASES
 from test_import_recording import BAD_CASES, run_cli, write_recording
+from test_release import BAD_RELEASES
 
 from odms_data.store.reader import open_store
 

@@ -1,5 +1,5 @@
 """Smoke run of examples/train_odn_jax.py (JAX, grain, optax): a few steps, then a predictions CSV
-(grain's prefetch processes are tested in test_loaders_grain)."""
+(grain's prefetch processes are tested in test_grain_loader)."""
 
 from __future__ import annotations
 

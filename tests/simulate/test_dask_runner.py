@@ -23,6 +23,7 @@ from odms_data.simulate.params import preset
 from odms_data.simulate.shard_task import ShardTask
 from odms_data.simulate.shards import run_shard
 from odms_data.store.reader import open_store
+from odms_data.store.shard_writer import MaskSink
 from odms_data.store.validate import validate
 
 COUNT, SEED, PER_SHARD = 96, 11, 4  # 24 shards: enough tasks to kill a worker in the middle
@@ -189,7 +190,8 @@ def test_a_rerun_task_rewrites_a_half_written_shard(local_digest, tmp_path):
     shard = tmp_path / "half.zarr" / "masks" / "c" / "1" / "0" / "0"
     whole = shard.read_bytes()
     shard.write_bytes(whole[: len(whole) // 2])
-    run_shard(ShardTask(url, "zarr", PARAMS, SEED, "generated", COUNT, PER_SHARD, 2 * PER_SHARD))
+    sink = MaskSink(url, "zarr", PARAMS.n_obs)
+    run_shard(ShardTask(sink, PARAMS, SEED, "generated", COUNT, PER_SHARD, 2 * PER_SHARD))
     assert shard.read_bytes() == whole
     _check(url, local_digest)
 

@@ -12,7 +12,7 @@ import scipy.ndimage
 from odms_data.simulate.object_model import sample_example
 from odms_data.simulate.params import GeneratorParams, preset
 from odms_data.simulate.raster import OUTSIDE, _fill, _mark, draw_silhouette, draw_silhouettes
-from odms_data.simulate.render import render_masks
+from odms_data.simulate.render import reference_masks
 
 
 def _touches(p: np.ndarray, q: np.ndarray, x: int, y: int) -> bool:
@@ -122,7 +122,7 @@ def test_silhouettes_match_the_released_generators_drawing():
     params = GeneratorParams()
     differ = total = 0
     for index in range(12):
-        ours = render_masks(sample_example(params, 21, index), params).astype(bool)
+        ours = reference_masks(sample_example(params, 21, index), params).astype(bool)
         theirs = _released_generator_masks(params, 21, index)
         differ += int((ours != theirs).sum())
         total += int(theirs.sum())
@@ -133,7 +133,7 @@ def test_silhouettes_match_the_released_generators_drawing():
 def test_no_holes_in_the_standard_preset():
     params = preset("standard")
     for index in range(40):
-        masks = render_masks(sample_example(params, 22, index), params)
+        masks = reference_masks(sample_example(params, 22, index), params)
         for m in masks:
             ys, xs = np.nonzero(m)
             box = m[ys.min() : ys.max() + 1, xs.min() : xs.max() + 1]

@@ -4,16 +4,18 @@ testing/store.py gives every store implementation the same suite)."""
 
 from __future__ import annotations
 
+import pickle
 import shutil
 from pathlib import Path
 
 import numpy as np
 import pytest
+from _stores import stats_of
 
 from odms_data.errors import StoreError, StoreExistsError
 from odms_data.store.digest import recompute_digest
 from odms_data.store.format import StoreAttrs
-from odms_data.store.masks import pack, stats_of
+from odms_data.store.masks import pack
 from odms_data.store.reader import Store, open_store
 from odms_data.store.writer import Layout, StoreWriter
 
@@ -40,7 +42,9 @@ def content() -> dict:
             "sources": [f"src{e}" for e in range(EXAMPLES)]}
 
 
-def write(path: Path, fmt: str, c: dict, *, overwrite: bool = False) -> None:
+def write(path: Path, fmt: str, c: dict, *, overwrite: bool = False, workers: bool = False) -> None:
+    """The store of `c`; `workers`: its masks written shard by shard through the writer's sink, as
+    generate's and the importers' workers write them."""
     layout = Layout(height=H, width=W, n_frames=FRAMES, n_examples=EXAMPLES, max_obs=5, id_width=20,
                     source_width=8, frames_per_chunk=3, frames_per_shard=9, examples_per_chunk=4)
     attrs = StoreAttrs(split="contract", domain="recording", image_size=(H, W),
@@ -49,7 +53,13 @@ def write(path: Path, fmt: str, c: dict, *, overwrite: bool = False) -> None:
                        source="the contract tests", digest="sha256:" + "0" * 64)
     with StoreWriter(str(path), fmt, overwrite=overwrite) as w:
         w.create(layout)
-        w.write_masks(0, pack(c["masks"]))
+        if workers:
+            sink, packed = pickle.loads(pickle.dumps(w.mask_sink())), pack(c["masks"])  # as tasks carry it
+            shard = layout.frames_per_shard
+            for start in range(0, FRAMES, shard):
+                w.receive_masks(start, sink.write_packed(start, packed[start : start + shard]))
+        else:
+            w.write_masks(0, pack(c["masks"]))
         w.write_frames(0, c["z"], c["depth"], stats_of(c["masks"]))
         w.write_examples(0, c["frame_index"], c["d1"], c["ids"], c["sources"])
         w.commit(attrs)
@@ -112,6 +122,14 @@ class StoreContract:
         write(other, "hdf5" if self.fmt == "zarr" else "zarr", c)
         with self.open(path) as s, open_store(str(other)) as o:
             assert recompute_digest(s)[0] == recompute_digest(o)[0]
+
+    def test_masks_written_by_workers_through_the_sink_read_back_the_same(self, written, tmp_path):
+        path, c = written
+        other = tmp_path / f"w{self.suffix}"
+        write(other, self.fmt, c, workers=True)
+        with self.open(path) as s, self.open(other) as o:
+            np.testing.assert_array_equal(o.read_masks(np.arange(FRAMES)), c["masks"])
+            assert recompute_digest(o)[0] == recompute_digest(s)[0]
 
     def test_an_existing_store_is_kept_without_overwrite(self, written):
         path, c = written

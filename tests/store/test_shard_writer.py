@@ -9,7 +9,8 @@ import pytest
 import zarr
 
 from odms_data.store.shard_reader import ShardReader
-from odms_data.store.writer import Layout, StoreWriter, write_shard_masks
+from odms_data.store.shard_writer import MaskSink
+from odms_data.store.writer import Layout, StoreWriter
 
 FRAMES, H, W, CHUNK, SHARD = 13, 9, 21, 3, 6  # 3 shards, the last with one chunk of 1 frame
 
@@ -26,7 +27,7 @@ def test_direct_shards_read_back_as_written(tmp_path: Path, how: str):
         w.create(layout)
         target = w.partial if how == "file" else f"file://{w.partial}"
         for start in range(0, FRAMES, SHARD):
-            assert write_shard_masks(target, "zarr", start, packed[start : start + SHARD], CHUNK) == []
+            assert MaskSink(target, "zarr", CHUNK).write_packed(start, packed[start : start + SHARD]) == []
         root = Path(w.partial) / "masks" / "c"
         assert sorted(str(p.relative_to(root)) for p in root.rglob("*") if p.is_file()) == \
             ["0/0/0", "1/0/0", "2/0/0"]
@@ -41,7 +42,7 @@ def test_hdf5_chunks_are_zero_padded_and_deflated():
     import zlib
 
     packed = np.arange(4 * 2 * 3, dtype=np.uint8).reshape(4, 2, 3)
-    chunks = write_shard_masks("unused.h5", "hdf5", 0, packed, 3)
+    chunks = MaskSink("unused.h5", "hdf5", 3).write_packed(0, packed)
     assert len(chunks) == 2
     last = np.frombuffer(zlib.decompress(chunks[1]), np.uint8).reshape(3, 2, 3)
     np.testing.assert_array_equal(last[0], packed[3])

@@ -1,21 +1,23 @@
 """Stores: generation into Zarr and HDF5, determinism, conversion, validation of corruption."""
 
 import json
+import re
 import shutil
 from pathlib import Path
 
 import numpy as np
 import pytest
 import zarr
+from _stores import stats_of
 
 from odms_data.errors import InputError, StoreError, StoreExistsError, StoreLockedError
 from odms_data.simulate.generate_store import generate
 from odms_data.simulate.object_model import sample_example
 from odms_data.simulate.params import GENERATOR_VERSION, PRESETS
-from odms_data.simulate.render import render_masks
+from odms_data.simulate.render import reference_masks
 from odms_data.store.convert import convert
 from odms_data.store.digest import frame_digests, frame_tails, padded_frame_digests
-from odms_data.store.masks import pack, stats_of, unpack
+from odms_data.store.masks import pack, unpack
 from odms_data.store.reader import open_store
 from odms_data.store.validate import validate
 from odms_data.store.writer import StoreWriter
@@ -57,7 +59,7 @@ def test_store_holds_what_the_generator_draws(small_zarr):
         for i in (0, 7, 29):
             spec = sample_example(PERTURB, 5, i)
             ex = s.example(f"small/{i:06d}")
-            expected = render_masks(spec, PERTURB).astype(bool)
+            expected = reference_masks(spec, PERTURB).astype(bool)
             np.testing.assert_array_equal(ex.masks, expected)
             np.testing.assert_array_equal(ex.z, spec.z)
             assert ex.d1 == spec.z[0]
@@ -234,3 +236,33 @@ def test_recorded_z_oddities_are_one_warning_line(tmp_path):
     warnings = [w for w in validate(str(path)).warnings if "z is not strictly increasing" in w]
     assert warnings == ["example stops/000 and 2 more example(s): z is not strictly increasing "
                         "(recorded oddity)"]
+
+
+def test_format_md_documents_every_array_of_the_table_with_its_dtype_and_rows(small_zarr):
+    from odms_data.resources import resource_dir
+    from odms_data.store.format import ARRAYS
+
+    text = (resource_dir("schemas") / "FORMAT.md").read_text()
+    table = re.findall(r"^\| `(\w+)` \| \((\w)[^|]*\| (\w+) \|", text, re.M)  # name, F or E, dtype
+    documented = {name: (rows, dtype) for name, rows, dtype in table}
+    tabled = {a.name: ("F" if a.per == "frame" else "E", np.dtype(a.dtype).name) for a in ARRAYS.values()}
+    assert documented == tabled
+    with open_store(small_zarr) as s:
+        assert s.backend.names() == set(ARRAYS)
+
+
+def test_every_store_suffix_is_written_opened_and_found_as_its_backend(tmp_path):
+    from _stores import make_store
+
+    from odms_data.evaluation.ground_truth import find_stores
+    from odms_data.store.format import SUFFIXES, store_path
+
+    examples = [{"z": [1.0, 1.5], "areas": [36, 25], "d1": 0.5}]
+    for fmt, suffixes in SUFFIXES.items():
+        for suffix in suffixes:
+            folder = tmp_path / suffix.lstrip(".")
+            path = Path(make_store(folder / f"normal-val{suffix}", "normal-val", examples))
+            with open_store(str(path)) as s:
+                assert s.format == fmt
+            assert find_stores([folder]) == {"normal-val": path}  # .hdf too, as the backends read it
+        assert store_path(tmp_path, "normal-val", fmt) == tmp_path / f"normal-val{suffixes[0]}"

@@ -1,4 +1,4 @@
-"""The PyTorch renderer (loaders/torch_render.py) against the CPU renderers, on CPU: the same
+"""The PyTorch renderer (simulate/torch_render.py) against the CPU renderers, on CPU: the same
 coverage masks within float32 rounding, the same filled silhouettes exactly."""
 
 from __future__ import annotations
@@ -9,14 +9,14 @@ import scipy.ndimage
 import torch
 
 from odms_data.errors import InputError
-from odms_data.loaders.torch_render import contour_pixels as torch_contour_pixels
-from odms_data.loaders.torch_render import fill_enclosed, render_coverage
 from odms_data.simulate.batch_render import frame_geometry, render_shrunk
 from odms_data.simulate.object_model import sample_example
 from odms_data.simulate.params import GeneratorParams
 from odms_data.simulate.raster import _mark
-from odms_data.simulate.render import render_masks
+from odms_data.simulate.render import reference_masks
 from odms_data.simulate.shrink import resize_masks
+from odms_data.simulate.torch_render import contour_pixels as torch_contour_pixels
+from odms_data.simulate.torch_render import fill_enclosed, render_coverage
 
 # objects as large as the image: some boxes leave it; perturbations of up to a few steps
 SMALL = GeneratorParams(image_size=(120, 160), sizes=(100, 500), perturb_std=2.0)
@@ -40,7 +40,7 @@ def test_coverage_equals_the_cpu_renderer_within_float_rounding(size):
     got = render_coverage(specs, SMALL, size, frames).numpy()
     assert got.shape == expected.shape == (12, 3, *size)
     np.testing.assert_allclose(got, expected, rtol=0, atol=2e-6)
-    slow = resize_masks(render_masks(specs[0], SMALL)[frames], size, coverage=True)
+    slow = resize_masks(reference_masks(specs[0], SMALL)[frames], size, coverage=True)
     np.testing.assert_allclose(got[0], slow, rtol=0, atol=2e-6)
     assert 0 < expected.mean() and (expected == 1).any()  # objects drawn, some pixels covered
 

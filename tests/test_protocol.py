@@ -1,6 +1,6 @@
 """The benchmark's facts agree with the shipped split manifests."""
 
-from odms_data.benchmark import OFFICIAL_COUNTS, OFFICIAL_SPLITS, evenly_spaced, protocol_windows
+from odms_data.protocol import OFFICIAL_COUNTS, OFFICIAL_SPLITS, evenly_spaced, protocol_windows
 from odms_data.store.manifests import load_manifest, split_names
 
 

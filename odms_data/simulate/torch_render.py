@@ -19,8 +19,8 @@ for all frames at once, on canvases grouped by size:
   Ay[:, rows] @ canvas @ Ax[:, cols]^T with the weight matrices taken from cv2 itself (resizing
   an identity matrix), in float32 at full precision (no TF32).
 
-No GPU was available where this was written: it is tested on CPU (tests/loaders/
-test_loaders_torch_render.py) and benchmarks/torch_render.py measures it on any device.
+No GPU was available where this was written: it is tested on CPU
+(tests/simulate/test_torch_render.py) and benchmarks/torch_render.py measures it on any device.
 """
 
 from __future__ import annotations
@@ -34,21 +34,21 @@ import numpy as np
 
 from ..errors import InputError
 from ..extras import missing
-from ..simulate.batch_render import frame_geometry
-from ..simulate.object_model import ExampleSpec
-from ..simulate.params import GeneratorParams
+from .batch_render import frame_geometry
+from .object_model import ExampleSpec
+from .params import GeneratorParams
 
 try:
     import torch
 except ModuleNotFoundError as e:
-    raise missing(e, "odms_data.loaders.torch_render") from None
+    raise missing(e, "odms_data.simulate.torch_render") from None
 
 PIXEL_BUDGET = 1 << 26  # canvas pixels drawn at once (float32 shrink temporaries: a few GB at most)
 SIZE_STEP = 1.25  # canvases drawn together differ in size by less than this factor
 
 
 @lru_cache(maxsize=8)
-def area_weights(full: int, small: int) -> np.ndarray:
+def area_matrix(full: int, small: int) -> np.ndarray:
     """(small, full) float32: cv2 INTER_AREA's weights of the `full` input pixels in each of the
     `small` output pixels along one axis, read off cv2 by shrinking an identity matrix."""
     eye = np.eye(full, dtype=np.float32)
@@ -171,7 +171,7 @@ def render_coverage(
     extent = g.hi - g.lo
     pad_x, pad_y = (int(v) for v in extent.max(axis=0))  # canvases overlap the image
     ay, ax = np.zeros((h, H0 + 2 * pad_y), np.float32), np.zeros((w, W0 + 2 * pad_x), np.float32)
-    ay[:, pad_y : pad_y + H0], ax[:, pad_x : pad_x + W0] = area_weights(H0, h), area_weights(W0, w)
+    ay[:, pad_y : pad_y + H0], ax[:, pad_x : pad_x + W0] = area_matrix(H0, h), area_matrix(W0, w)
     ay_t, ax_t = torch.from_numpy(ay).to(device), torch.from_numpy(ax).to(device)
     total = len(g.k)
     out = torch.empty((total, h, w), dtype=torch.float32, device=device)

@@ -12,7 +12,7 @@ from odms_data.errors import InputError
 from odms_data.loaders import GeneratedExamples, StoreExamples, Transform, store_batches, stream_batches
 from odms_data.simulate.object_model import sample_example
 from odms_data.simulate.params import GeneratorParams
-from odms_data.simulate.render import render_masks
+from odms_data.simulate.render import reference_masks
 from odms_data.simulate.shrink import resize_masks
 from odms_data.store.reader import open_store
 
@@ -53,7 +53,7 @@ def test_store_example_native_size(store_path):
     ex = StoreExamples(store_path, Transform(size=None)).example(0)
     assert ex["masks"].shape == (10, *PARAMS.image_size)
     spec = sample_example(PARAMS, 5, 0)
-    np.testing.assert_array_equal(ex["masks"], render_masks(spec, PARAMS))
+    np.testing.assert_array_equal(ex["masks"], reference_masks(spec, PARAMS))
 
 
 def test_stream_same_seed_same_batches_and_epochs_disjoint():
@@ -73,7 +73,7 @@ def test_streamed_example_is_the_generators():
     ex = GeneratedExamples(params, 4, Transform(n_obs=5)).example(7)
     spec = sample_example(params, 4, 7)
     chosen = [0, 2, 4, 6, 9]
-    full = render_masks(spec, params)[chosen]
+    full = reference_masks(spec, params)[chosen]
     np.testing.assert_array_equal(ex["masks"], resize_masks(full, (112, 112), coverage=True))
     assert ex["masks"].dtype == np.float32 and ((ex["masks"] > 0) & (ex["masks"] < 1)).any()  # fractions
     assert ex["d1"] == np.float32(spec.z[0]) and ex["index"] == 7
@@ -82,7 +82,7 @@ def test_streamed_example_is_the_generators():
     np.testing.assert_array_equal(rounded["masks"], resize_masks(full, (112, 112)))
     assert rounded["masks"].dtype == np.uint8
     direct = GeneratedExamples(params, 4, Transform(n_obs=5), direct=True).example(7)
-    np.testing.assert_array_equal(direct["masks"], render_masks(spec, params, (112, 112))[chosen])
+    np.testing.assert_array_equal(direct["masks"], reference_masks(spec, params, (112, 112))[chosen])
 
 
 def test_stream_equals_store_read_through_loader(store_path):

@@ -21,7 +21,7 @@ from odms_data.store.reader import open_store
 
 def two_workers(dataset, **kwargs) -> DataLoader:
     """Spawned, not forked: forking a pytest process that has started JAX or TensorFlow threads can
-    deadlock. Store handles inherited across fork are covered in test_loaders_numpy."""
+    deadlock. Store handles inherited across fork are covered in test_numpy_loader."""
     return DataLoader(dataset, num_workers=2, multiprocessing_context="spawn", **kwargs)
 
 

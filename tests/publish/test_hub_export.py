@@ -13,11 +13,11 @@ import pytest
 import yaml
 
 from odms_data.errors import InputError
+from odms_data.publish.hub_export import export_hub, sha256
+from odms_data.publish.hub_metadata import licence_of
 from odms_data.simulate.generate_store import generate
 from odms_data.simulate.params import GeneratorParams
 from odms_data.store.format import StoreAttrs
-from odms_data.store.hub_export import export_hub, sha256
-from odms_data.store.hub_metadata import licence_of
 from odms_data.store.reader import open_store
 
 PARAMS = GeneratorParams(image_size=(60, 83), sizes=(20, 40), n_obs=4)  # odd width: padded mask rows

@@ -4,12 +4,12 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from _stores import stats_of
 
 from odms_data.errors import InputError
 from odms_data.simulate.object_model import sample_example, sample_examples, spaced_points
 from odms_data.simulate.params import PRESETS, GeneratorParams, preset
-from odms_data.simulate.render import render_masks
-from odms_data.store.masks import stats_of
+from odms_data.simulate.render import reference_masks
 
 STANDARD, PERTURB = PRESETS["standard"], PRESETS["perturb"]
 
@@ -27,7 +27,7 @@ def test_camera_positions_follow_the_papers_ranges():
 def test_mask_areas_follow_inverse_square_of_depth():
     for i in range(40):
         spec = sample_example(STANDARD, 11, i)
-        masks = render_masks(spec, STANDARD)
+        masks = reference_masks(spec, STANDARD)
         stats = stats_of(masks)
         a = stats.area.astype(float)
         half_perimeter = (stats.bbox[:, 2] - stats.bbox[:, 0]) + (stats.bbox[:, 3] - stats.bbox[:, 1])
@@ -40,7 +40,7 @@ def test_mask_areas_follow_inverse_square_of_depth():
 
 def test_object_is_centred_and_one_region():
     spec = sample_example(STANDARD, 2, 0)
-    stats = stats_of(render_masks(spec, STANDARD))
+    stats = stats_of(reference_masks(spec, STANDARD))
     cx = (stats.bbox[:, 0] + stats.bbox[:, 2]) / 2
     cy = (stats.bbox[:, 1] + stats.bbox[:, 3]) / 2
     # the contour's s_p box is centred, so the object's own box lies around the centre
@@ -50,8 +50,8 @@ def test_object_is_centred_and_one_region():
 
 def test_perturbation_erodes_or_dilates_by_the_drawn_iterations():
     spec = sample_example(PERTURB, 5, 1)
-    plain = render_masks(replace(spec, perturb=np.zeros(10)), PERTURB).reshape(10, -1).sum(1)
-    perturbed = render_masks(spec, PERTURB).reshape(10, -1).sum(1)
+    plain = reference_masks(replace(spec, perturb=np.zeros(10)), PERTURB).reshape(10, -1).sum(1)
+    perturbed = reference_masks(spec, PERTURB).reshape(10, -1).sum(1)
     k = np.round(np.abs(spec.perturb))
     for i in range(10):
         if k[i] == 0:
@@ -117,9 +117,9 @@ def test_points_are_spaced_by_the_released_generators_rule():
 
 def test_rendering_at_training_resolution_keeps_the_object_centred():
     spec = sample_example(STANDARD, 4, 2)
-    small = render_masks(spec, STANDARD, size=(112, 112))
+    small = reference_masks(spec, STANDARD, size=(112, 112))
     assert small.shape == (10, 112, 112)
-    full = render_masks(spec, STANDARD).reshape(10, -1).sum(1)
+    full = reference_masks(spec, STANDARD).reshape(10, -1).sum(1)
     scale = (112 / 480) * (112 / 640)
     np.testing.assert_allclose(small.reshape(10, -1).sum(1), full * scale, rtol=0.35, atol=20)
 

@@ -11,15 +11,12 @@ from __future__ import annotations
 import json
 import re
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
 
 from .._version import __version__
-from ..benchmark import official_name
 from ..errors import InputError
-from .format import StoreAttrs
-
-if TYPE_CHECKING:
-    from .hub_export import SplitExport
+from ..protocol import official_name
+from ..store.format import ARRAYS, StoreAttrs, arrays_per
 
 PAPER = "Learning Object Depth from Camera Motion and Video Object Segmentation"
 BIBTEX = """@inproceedings{GrCo20,
@@ -34,21 +31,40 @@ RELEASE_LICENCE = {  # the licence of the authors' released data (griffbr/ODMS)
 }
 LICENCE_URLS = {"mit": "https://opensource.org/licenses/MIT"}
 
-# column: (Croissant data type, repeated, description)
-FIELDS = {
-    "example_id": ("sc:Text", False, "the example's id, <split>/<name>"),
-    "split": ("sc:Text", False, "the store's split"),
-    "source": ("sc:Text", False, "where the example came from"),
-    "d1": ("sc:Float", False, "label: depth (m) at the closest observation, z_1; NaN when unlabelled"),
-    "n": ("sc:Integer", False, "observations (frames) of the example"),
-    "height": ("sc:Integer", False, "mask height, pixels"),
-    "width": ("sc:Integer", False, "mask width, pixels"),
-    "z": ("sc:Float", True, "camera position (m) of each observation, ascending"),
-    "depth": ("sc:Float", True, "object depth (m) at each observation; NaN where unknown"),
-    "area": ("sc:Integer", True, "object pixels of each mask"),
-    "masks": ("sc:Text", True, "each observation's binary mask, bit-packed: height rows of ceil(width / 8) "
-              "bytes, most significant bit first (numpy.packbits(mask, axis=-1))"),
+@dataclass
+class SplitExport:
+    """What one store became: its split, examples and Parquet files (relative to the output)."""
+
+    split: str
+    examples: int
+    files: list[str]
+    bytes: int
+
+
+# the columns that are not store arrays: (Croissant data type, description)
+DERIVED = {
+    "split": ("sc:Text", "the store's split"),
+    "n": ("sc:Integer", "observations (frames) of the example"),
+    "height": ("sc:Integer", "mask height, pixels"),
+    "width": ("sc:Integer", "mask width, pixels"),
 }
+
+
+def _fields() -> dict[str, tuple[str, bool, str]]:
+    """column: (Croissant data type, repeated, description), in the Parquet files' order: the
+    example's own columns, then a list per example of each per-frame array the table exports
+    (format.ARRAYS), the masks last."""
+    exported = {a.name: a.hub for a in ARRAYS.values() if a.hub}
+    head = ["example_id", "split", "source", "d1", "n", "height", "width"]
+    head += [a.name for a in arrays_per("example") if a.hub and a.name not in head]
+    frame = sorted((a for a in arrays_per("frame") if a.hub), key=lambda a: a.sharded)
+    return {
+        **{c: (t, False, d) for c in head for t, d in [DERIVED.get(c) or exported[c]]},
+        **{a.name: (t, True, d) for a in frame for t, d in [exported[a.name]]},
+    }
+
+
+FIELDS = _fields()
 
 
 def hub_split(split: str) -> str:

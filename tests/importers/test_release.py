@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from odms_data.benchmark import OFFICIAL_SPLITS as SPLITS
 from odms_data.cli import main
+from odms_data.protocol import OFFICIAL_SPLITS as SPLITS
 from odms_data.store.manifests import load_manifest
 from odms_data.store.reader import open_store
 from odms_data.store.validate import validate

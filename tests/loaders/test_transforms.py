@@ -8,6 +8,7 @@ import hashlib
 import cv2
 import numpy as np
 import pytest
+from _stores import stats_of
 
 from odms_data.errors import InputError
 from odms_data.loaders.targets import labels
@@ -22,10 +23,10 @@ from odms_data.loaders.transforms import (
 from odms_data.simulate.batch_render import render_boxes, render_masks, render_shrunk
 from odms_data.simulate.object_model import sample_example
 from odms_data.simulate.params import GeneratorParams, preset
+from odms_data.simulate.render import reference_masks as generator_render
 from odms_data.simulate.render import render_frame
-from odms_data.simulate.render import render_masks as generator_render
 from odms_data.simulate.shrink import shrink_packed
-from odms_data.store.masks import pack, stats_of
+from odms_data.store.masks import pack
 
 
 def test_observation_indices_are_linspace_truncated():

@@ -11,7 +11,7 @@ from PIL import Image, ImageDraw
 
 from ..errors import InputError
 from ..outputs import atomic_file
-from .reader import Example
+from ..store.reader import Example
 
 THUMB_WIDTH = 240
 CAPTION = 30

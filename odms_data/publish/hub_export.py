@@ -19,7 +19,6 @@ from __future__ import annotations
 import hashlib
 import json
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -27,55 +26,61 @@ import numpy as np
 from ..errors import InputError
 from ..extras import optional
 from ..outputs import Kind, atomic_folder
-from .digest import check_recorded_digest
-from .hub_metadata import croissant, dataset_card, hub_split, licence_of
-from .reader import Store, open_store
+from ..store.digest import check_recorded_digest
+from ..store.format import ARRAYS
+from ..store.reader import Store, open_store
+from .hub_metadata import FIELDS, SplitExport, croissant, dataset_card, hub_split, licence_of
 
 ROW_GROUP = 100  # examples per Parquet row group: small groups let the Hub's viewer page quickly
 Progress = Callable[[int], None]  # called with the number of examples just written
 
 
-@dataclass
-class SplitExport:
-    """What one store became: its split, examples and Parquet files (relative to the output)."""
-
-    split: str
-    examples: int
-    files: list[str]
-    bytes: int
-
-
 def _example_rows(store: Store, rows: range) -> dict[str, list]:
-    """The columns of examples `rows` of `store`, their masks read in one slice."""
+    """The columns (hub_metadata.FIELDS) of examples `rows` of `store`, their masks read in one slice."""
     frames = [store.frames_of(i) for i in rows]
     flat = np.concatenate([np.zeros(0, np.int64), *frames])
     lo = int(flat.min()) if len(flat) else 0
     packed = store.read_packed(lo, int(flat.max()) + 1) if len(flat) else None
-    split, ids, sources = store.attrs.split, store.example_ids, store.sources
-    return {
-        "example_id": [ids[i] for i in rows],
-        "split": [split] * len(rows),
-        "source": [sources[i] for i in rows],
-        "d1": [float(store.d1[i]) for i in rows],
+    out: dict[str, list] = {
+        "split": [store.attrs.split] * len(rows),
         "n": [len(f) for f in frames],
         "height": [store.height] * len(rows),
         "width": [store.width] * len(rows),
-        "z": [store.z[f].tolist() for f in frames],
-        "depth": [store.depth[f].tolist() for f in frames],
-        "area": [store.area[f].tolist() for f in frames],
-        "masks": [[packed[k - lo].tobytes() for k in f] if packed is not None else [] for f in frames],
     }
+    for c in FIELDS:
+        a = ARRAYS.get(c)
+        if a is None:
+            continue
+        if a.sharded:
+            out[c] = [[packed[k - lo].tobytes() for k in f] if packed is not None else [] for f in frames]
+        elif a.per == "frame":
+            values = store.checked(c)
+            out[c] = [values[f].tolist() for f in frames]
+        elif a.text:
+            values = store.checked(c)
+            out[c] = [values[i] for i in rows]
+        else:
+            out[c] = store.checked(c)[rows.start : rows.stop].tolist()
+    return {c: out[c] for c in FIELDS}
 
 
 def _schema():
     import pyarrow as pa
 
-    return pa.schema([
-        ("example_id", pa.string()), ("split", pa.string()), ("source", pa.string()),
-        ("d1", pa.float64()), ("n", pa.int32()), ("height", pa.int32()), ("width", pa.int32()),
-        ("z", pa.list_(pa.float64())), ("depth", pa.list_(pa.float64())), ("area", pa.list_(pa.int32())),
-        ("masks", pa.list_(pa.binary())),
-    ])
+    def arrow(c: str):
+        a = ARRAYS.get(c)
+        if a is None:
+            return pa.string() if c == "split" else pa.int32()
+        if a.sharded:
+            return pa.list_(pa.binary())
+        if a.text:
+            return pa.string()
+        one = pa.from_numpy_dtype(a.dtype)
+        for _ in a.trailing:
+            one = pa.list_(one)
+        return pa.list_(one) if a.per == "frame" else one
+
+    return pa.schema([(c, arrow(c)) for c in FIELDS])
 
 
 def _write_split(store: Store, folder: Path, examples_per_file: int, progress: Progress) -> SplitExport:

@@ -1,0 +1,69 @@
+"""What training and prediction share to run a network: the device, a store's examples as batches
+on it, the forward pass and the depths it means, and a checkpoint read back."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from pathlib import Path
+
+import torch
+from torch.utils.data import DataLoader
+
+from ..errors import InputError
+from ..loaders.targets import depth
+from ..loaders.torch_loader import StoreDataset
+from . import odn
+from .checkpoint import Checkpoint
+from .run_folder import TrainConfig
+from .variants import Variant
+
+EVAL_BATCH = 256  # examples a forward pass in evaluation
+Batch = dict[str, torch.Tensor]  # a loader batch: network inputs and labels by name
+
+
+def pick_device(name: str | None) -> torch.device:
+    """The device called `name`, or the first GPU when there is one, else the CPU."""
+    if name is None:
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    try:
+        device = torch.device(name)
+    except RuntimeError:
+        raise InputError(f"device '{name}' is not a device name (cpu, cuda, cuda:1, ...)") from None
+    if device.type not in ("cpu", "cuda"):  # meta, xla, ...: no place to train or predict on
+        raise InputError(f"device {name}: not a device odms-data computes on; use cpu, cuda or cuda:N")
+    if device.type == "cuda" and not torch.cuda.is_available():
+        raise InputError(f"device {name}: PyTorch sees no CUDA device on this machine")
+    if device.type == "cuda" and (device.index or 0) >= torch.cuda.device_count():
+        raise InputError(f"device {name}: this machine has {torch.cuda.device_count()} CUDA device(s)")
+    return device
+
+
+def outputs_and_depths(model: torch.nn.Module, v: Variant, batch: Batch) -> tuple[torch.Tensor, torch.Tensor]:
+    """The network's outputs for a batch (on the model's device) and the depths they mean (float64:
+    d1 = s span / (1 - s) magnifies float32 rounding where the scale s is near 1)."""
+    out = model(*odn.inputs(batch, v))
+    return out, depth(v.label, out.detach().double(), batch["dz"][:, -1].double())
+
+
+def to_device(batch: Batch, device: torch.device) -> Batch:
+    return {k: t.to(device, non_blocking=True) for k, t in batch.items()}
+
+
+def store_dataset(path: str, config: TrainConfig) -> StoreDataset:
+    """The store's examples as the network's inputs; its open store is `.examples.store`."""
+    return StoreDataset(path, odn.transform(config.n_obs, config.radial))
+
+
+def store_batches(dataset: StoreDataset, workers: int, pin: bool) -> Iterable[Batch]:
+    """The dataset's examples in row order, EVAL_BATCH at a time."""
+    return DataLoader(dataset, batch_size=EVAL_BATCH, num_workers=workers, pin_memory=pin)
+
+
+def read_checkpoint(path: Path) -> Checkpoint:
+    """A checkpoint, on the CPU (the random states must be there; load_state_dict moves weights
+    and Adam's state to their module's device)."""
+    try:
+        saved = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as e:  # a truncated or foreign file: torch raises many kinds
+        raise InputError(f"{path}: not a readable checkpoint ({type(e).__name__}: {e})") from None
+    return Checkpoint.from_json(saved, str(path))
