@@ -7,9 +7,9 @@ from click.testing import CliRunner
 from PIL import Image
 
 from odms_data.cli import main
+from odms_data.publish.contact_sheet import CROP_LEAST, THUMB_WIDTH, contact_sheet, object_box
 from odms_data.simulate.generate_store import generate
 from odms_data.simulate.params import GeneratorParams
-from odms_data.publish.contact_sheet import CROP_LEAST, THUMB_WIDTH, contact_sheet, object_box
 from odms_data.store.reader import Example, open_store
 
 
