@@ -14,7 +14,7 @@ PACKAGE = Path(odms_data.__file__).resolve().parent
 
 # the rank of each top-level module and folder; a module may import lower ranks and its own folder
 LAYERS = {
-    "_version": 0, "errors": 0,
+    "_version": 0, "errors": 0, "safe_json": 1,
     "benchmark": 1, "resources": 1, "parallel": 1, "outputs": 1, "interrupts": 1,
     "store": 2,
     "simulate": 3, "importers": 3, "evaluation": 3,

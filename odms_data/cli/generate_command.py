@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-import json
 
 import click
 
+from .. import safe_json
 from ..errors import InputError
 from ..simulate.params import DEFAULT_EXAMPLES_PER_SHARD, PRESETS, GeneratorParams
 from ..simulate.params import preset as make_preset
@@ -20,9 +20,9 @@ def _parse_param(values: tuple[str, ...]) -> dict:
         if not sep or not key:
             raise InputError(f"--param '{item}': expected NAME=VALUE, e.g. --param d_max=0.9")
         try:
-            out[key] = json.loads(raw)
-        except json.JSONDecodeError:
-            raise InputError(f"--param '{item}': value is not a number or JSON list") from None
+            out[key] = safe_json.loads(raw, f"--param '{item}'")
+        except InputError as e:
+            raise InputError(f"{e}; the value must be a number or JSON list") from None
     return out
 
 

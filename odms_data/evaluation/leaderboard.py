@@ -14,6 +14,7 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
+from .. import safe_json
 from .._version import __version__
 from ..benchmark import ABS_UNITS, FAMILIES, OFFICIAL_DOMAINS, official_name
 from ..errors import InputError
@@ -49,10 +50,7 @@ def load_entries(folder: Path | None = None) -> list[dict]:
     entries: list[dict] = []
     seen: dict[str, Path] = {}
     for path in sorted(folder.glob("*.json")):
-        try:
-            entry = json.loads(path.read_text(encoding="utf-8"))
-        except json.JSONDecodeError as e:
-            raise InputError(f"{path}: not valid JSON ({e})") from None
+        entry = safe_json.load_file(path)
         check_entry(entry, str(path))
         if entry["name"] in seen:
             raise InputError(f"{path}: entry name {entry['name']!r} is also used by {seen[entry['name']]}")

@@ -61,13 +61,36 @@ def store_batches(path: str, config: TrainConfig, workers: int, pin: bool) -> It
     return DataLoader(dataset, batch_size=EVAL_BATCH, num_workers=workers, pin_memory=pin)
 
 
-def read_checkpoint(path: Path) -> dict[str, Any]:
+# what a checkpoint holds (training.py writes it): key -> type
+CHECKPOINT = {"model": dict, "iteration": int, "optimizer": dict, "rng": torch.Tensor,
+              "best": float, "best_iteration": int, "seconds": float}
+WEIGHTS = ("model", "iteration")  # what predicting needs; resuming needs all of CHECKPOINT
+
+
+def read_checkpoint(path: Path, keys: tuple[str, ...] = WEIGHTS) -> dict[str, Any]:
     """A checkpoint's content, on the CPU (the random states must be there; load_state_dict moves
-    weights and Adam's state to their module's device)."""
+    weights and Adam's state to their module's device), with at least `keys`, checked."""
     try:
-        return torch.load(path, map_location="cpu", weights_only=True)
+        saved = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as e:  # a truncated or foreign file: torch raises many kinds
         raise InputError(f"{path}: not a readable checkpoint ({type(e).__name__}: {e})") from None
+    problem = checkpoint_problem(saved, keys)
+    if problem:
+        raise InputError(f"{path}: not a checkpoint of odms-data ({problem})")
+    return saved
+
+
+def checkpoint_problem(saved: Any, keys: tuple[str, ...]) -> str | None:
+    """What is wrong with the structure of a loaded checkpoint, or None."""
+    if not isinstance(saved, dict):
+        return f"it holds a {type(saved).__name__}, not a dict"
+    for key in keys:
+        want, value = CHECKPOINT[key], saved.get(key)
+        if isinstance(value, bool) or not isinstance(value, int | float if want is float else want):
+            return f"'{key}' is {type(value).__name__ if key in saved else 'missing'}, not {want.__name__}"
+    weights = saved["model"]
+    bad = [k for k, t in weights.items() if not isinstance(k, str) or not isinstance(t, torch.Tensor)]
+    return f"its weight {bad[0]!r} is not a tensor" if bad else None
 
 
 def load_trained(folder: RunFolder, which: str, device: torch.device) -> tuple[ODN, TrainConfig, int]:

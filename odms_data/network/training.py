@@ -29,7 +29,15 @@ from ..simulate.params import PRESETS, GeneratorParams
 from ..store.reader import open_store
 from . import odn
 from .odn import ODN
-from .prediction import Batch, outputs_and_depths, pick_device, read_checkpoint, store_batches, to_device
+from .prediction import (
+    CHECKPOINT,
+    Batch,
+    outputs_and_depths,
+    pick_device,
+    read_checkpoint,
+    store_batches,
+    to_device,
+)
 from .run_folder import BEST, LAST, RUN_KIND, TRAIN, VAL, AddRow, RunFolder, TrainConfig
 from .variants import Variant, variant
 
@@ -132,7 +140,7 @@ def _train(path: str | Path, config: TrainConfig, workers: int, device: str | No
            report: Callable[[Status], None]) -> Status:
     folder, v, dev = RunFolder(path), variant(config.model), pick_device(device)
     status = Status(0, config.iterations, config.batch_size, 0, 0.0, str(dev))
-    saved = read_checkpoint(folder.file(LAST)) if folder.check(config, overwrite) else {}
+    saved = read_checkpoint(folder.file(LAST), tuple(CHECKPOINT)) if folder.check(config, overwrite) else {}
     if saved:
         status.iteration = status.started_at = status.checkpoint = int(saved["iteration"])
         status.best, status.best_iteration = saved["best"], saved["best_iteration"]

@@ -14,6 +14,7 @@ import numpy as np
 from .._version import __version__
 from ..errors import StoreError
 from ..resources import resource_dir
+from .declared import storage_problems
 from .masks import packed_width
 
 FORMAT_VERSION = 1
@@ -111,7 +112,7 @@ def layout_problems(backend: Any, raw: dict[str, Any]) -> list[str]:
             problems.append(f"array '{name}' has shape {shape}, expected ({E}, width >= 1)")
         if np.dtype(arr.dtype) != np.dtype(dtype):
             problems.append(f"array '{name}' has dtype {arr.dtype}, expected {np.dtype(dtype)}")
-    return problems
+    return problems or storage_problems(backend, {**FRAME_ARRAYS, **EXAMPLE_ARRAYS})
 
 
 def encode_strings(values: list[str]) -> np.ndarray:

@@ -17,14 +17,14 @@ from its recorded digest is refused, since the card publishes the digests. Needs
 from __future__ import annotations
 
 import hashlib
-import json
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from .. import safe_json
+from ..errors import InputError, OdmsError
 from ..outputs import Kind, atomic_folder
 from .digest import check_recorded_digest
 from .hub_metadata import croissant, dataset_card, hub_split, licence_of
@@ -112,8 +112,8 @@ def _not_an_export(path: Path) -> str | None:
     if not any(path.iterdir()):
         return None
     try:
-        creator = json.loads((path / "croissant.json").read_text(encoding="utf-8"))["creator"]["name"]
-    except (OSError, ValueError, KeyError, TypeError):
+        creator = safe_json.load_file(path / "croissant.json")["creator"]["name"]
+    except (OdmsError, KeyError, TypeError):
         creator = None
     if not (isinstance(creator, str) and creator.startswith("odms-data ")):
         return "is not an earlier export (no croissant.json written by odms-data)"
