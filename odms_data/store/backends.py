@@ -47,6 +47,7 @@ class Backend:
     """An open store: named arrays that slice like numpy, plus the `odms` attribute."""
 
     kind: str
+    path: str
 
     def names(self) -> set[str]:
         raise NotImplementedError

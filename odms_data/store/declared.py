@@ -143,6 +143,6 @@ def _stored_keys(path: str, name: str) -> set[str]:
         fs, root = fsspec.core.url_to_fs(path)
         base = f"{root.rstrip('/')}/{name}/"
         return {f[len(base):] for f in fs.find(base) if not f.endswith("zarr.json")}
-    base = Path(path) / name
-    return {str(Path(d, f).relative_to(base)).replace(os.sep, "/")
-            for d, _, files in os.walk(base) for f in files if f != "zarr.json"}
+    folder = Path(path) / name
+    return {str(Path(d, f).relative_to(folder)).replace(os.sep, "/")
+            for d, _, files in os.walk(folder) for f in files if f != "zarr.json"}

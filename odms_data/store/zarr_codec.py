@@ -26,8 +26,8 @@ class BoundedZstdCodec(ZstdCodec):
     def _decode_sync(self, chunk_bytes: Any, chunk_spec: Any) -> Any:
         expected = int(np.prod(chunk_spec.shape)) * chunk_spec.dtype.to_native_dtype().itemsize
 
-        def decode(buf: np.ndarray) -> np.ndarray:
-            return np.frombuffer(zstd_decode(memoryview(buf).cast("B"), expected), np.uint8)
+        def decode(buf: np.ndarray) -> bytes:
+            return zstd_decode(buf.data.cast("B"), expected)
 
         return as_numpy_array_wrapper(decode, chunk_bytes, chunk_spec.prototype)
 
