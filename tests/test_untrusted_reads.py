@@ -157,3 +157,23 @@ def test_a_run_folder_is_checked_before_anything_is_built(tmp_path):
     assert_refused(results[0], "huge", "n_obs must be at most 100")
     assert_refused(results[1], "list", "holds a list, not a dict")
     assert_refused(results[2], "no-model", "'model' is list, not dict")
+
+
+def test_predict_never_predicts_from_a_missing_chunk(hostile):
+    import torch
+
+    from odms_data.network import odn
+    from odms_data.network.variants import variant
+
+    root, stores = hostile
+    run = root / "run"
+    run.mkdir(exist_ok=True)
+    (run / "config.json").write_text(json.dumps({"config": {"model": "odn-l", "n_obs": 3, "val": ["v.zarr"],
+                                                            "seed": 123}}))
+    torch.save({"iteration": 1, "model": odn.build(variant("odn-l"), 3, False).state_dict()}, run / "best.pt")
+    store = str(stores["a mask chunk missing (zarr)"].relative_to(root))
+    results = run_limited(root, [["predict", "run", "--data", store, "-o", f"p{w}.csv", "--device", "cpu",
+                                  "--workers", str(w)] for w in (0, 2)], budget=RUN_BUDGET)
+    for w, result in zip((0, 2), results, strict=True):
+        assert_refused(result, f"predict --workers {w}", "chunk 1 of the shard is missing")
+        assert not (root / f"p{w}.csv").exists()

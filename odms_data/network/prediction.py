@@ -7,7 +7,7 @@ loaders.targets.depth, exactly as in training's validation.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -16,7 +16,7 @@ import torch
 from torch.utils.data import DataLoader
 
 from ..benchmark import split_order
-from ..errors import InputError
+from ..errors import InputError, OdmsError
 from ..evaluation.predictions import write_predictions
 from ..loaders.targets import depth
 from ..loaders.torch_loader import StoreDataset
@@ -55,10 +55,21 @@ def to_device(batch: Batch, device: torch.device) -> Batch:
     return {k: t.to(device, non_blocking=True) for k, t in batch.items()}
 
 
-def store_batches(path: str, config: TrainConfig, workers: int, pin: bool) -> Iterable[Batch]:
-    """The store's examples as network inputs, in row order, EVAL_BATCH at a time."""
+WORKER_ERROR = "in DataLoader worker process"  # how torch says an exception came from a worker
+
+
+def store_batches(path: str, config: TrainConfig, workers: int, pin: bool) -> Iterator[Batch]:
+    """The store's examples as network inputs, in row order, EVAL_BATCH at a time. A problem a
+    worker meets (a damaged chunk) is raised with its own one-line message: torch raises it again
+    with the worker's traceback as its message."""
     dataset = StoreDataset(path, odn.transform(config.n_obs, config.radial))
-    return DataLoader(dataset, batch_size=EVAL_BATCH, num_workers=workers, pin_memory=pin)
+    try:
+        yield from DataLoader(dataset, batch_size=EVAL_BATCH, num_workers=workers, pin_memory=pin)
+    except OdmsError as e:
+        if WORKER_ERROR not in str(e):
+            raise
+        raise type(e)(str(e).rstrip().splitlines()[-1].split(": ", 1)[-1]) from None
+
 
 
 # what a checkpoint holds (training.py writes it): key -> type
