@@ -134,10 +134,10 @@ def test_json_everywhere_is_depth_bounded(tmp_path):
         ["leaderboard", "--dir", "board"],
         ["predict", "run", "--data", ".", "-o", "p.csv", "--device", "cpu"],
     ])
-    for what, result, names in zip(("--param", "leaderboard", "run config"), results,
-                                   ("--param", "e.json", "config.json"), strict=True):
+    for what, result, names in zip(("--param", "leaderboard"), results[:2], ("--param", "e.json"), strict=True):
         assert_refused(result, what, names)
         assert "nested deeper than 64" in result[2], (what, result[2])
+    assert_refused(results[2], "run config", "not a training run")  # a config odms-data did not write
     assert not (tmp_path / "g.zarr").exists()
 
 
@@ -148,7 +148,7 @@ def test_a_run_folder_is_checked_before_anything_is_built(tmp_path):
     runs = {"huge": {**config, "n_obs": 1_000_000}, "list": config, "no-model": config}
     for name, c in runs.items():
         (tmp_path / name).mkdir()
-        (tmp_path / name / "config.json").write_text(json.dumps({"config": c}))
+        (tmp_path / name / "config.json").write_text(json.dumps({"config": c, "odms_data": "0"}))
     make_valid(tmp_path / "v.zarr")
     torch.save([1, 2, 3], tmp_path / "list" / "best.pt")
     torch.save({"iteration": 3, "model": [torch.zeros(2)]}, tmp_path / "no-model" / "best.pt")
@@ -168,8 +168,8 @@ def test_predict_never_predicts_from_a_missing_chunk(hostile):
     root, stores = hostile
     run = root / "run"
     run.mkdir(exist_ok=True)
-    (run / "config.json").write_text(json.dumps({"config": {"model": "odn-l", "n_obs": 3, "val": ["v.zarr"],
-                                                            "seed": 123}}))
+    config = {"model": "odn-l", "n_obs": 3, "val": ["v.zarr"], "seed": 123}
+    (run / "config.json").write_text(json.dumps({"config": config, "odms_data": "0"}))
     torch.save({"iteration": 1, "model": odn.build(variant("odn-l"), 3, False).state_dict()}, run / "best.pt")
     store = str(stores["a mask chunk missing (zarr)"].relative_to(root))
     results = run_limited(root, [["predict", "run", "--data", store, "-o", f"p{w}.csv", "--device", "cpu",
