@@ -113,13 +113,14 @@ def main() -> None:
                 new = statistics.median(times[f"{fmt} {what} new"])
                 figures[f"{fmt} {what}"] = {"base_s": round(base, 4), "new_s": round(new, 4),
                                             "ratio": round(new / base, 3)}
-    head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
-    dirty = subprocess.run(["git", "status", "--porcelain", "odms_data"], cwd=ROOT, capture_output=True,
-                           text=True).stdout.strip()
+    git = {"cwd": ROOT, "capture_output": True, "text": True}
+    head = subprocess.run(["git", "rev-parse", "HEAD"], **git).stdout.strip()
+    dirty = subprocess.run(["git", "status", "--porcelain", "odms_data"], **git).stdout.strip()
     result = {
-        "benchmark": "untrusted_reads", "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-        "machine": {"platform": platform.platform(), "processor": platform.processor(), "cpus": os.cpu_count(),
-                    "load_average": os.getloadavg()},
+        "benchmark": "untrusted_reads",
+        "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+        "machine": {"platform": platform.platform(), "processor": platform.processor(),
+                    "cpus": os.cpu_count(), "load_average": os.getloadavg()},
         "commit": head + (" (with uncommitted changes)" if dirty else ""), "base_commit": base_commit,
         "examples": args.count, "repeat": args.repeat, "figures": figures,
     }

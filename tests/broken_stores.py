@@ -207,7 +207,8 @@ def rewrite_shard(store: Path, k: int, data: bytes | None) -> None:
     import google_crc32c
 
     meta = json.loads((store / "masks" / "zarr.json").read_text())
-    per = meta["chunk_grid"]["configuration"]["chunk_shape"][0] // meta["codecs"][0]["configuration"]["chunk_shape"][0]
+    shard = meta["chunk_grid"]["configuration"]["chunk_shape"][0]
+    per = shard // meta["codecs"][0]["configuration"]["chunk_shape"][0]
     path = store / "masks" / "c" / "0" / "0" / "0"
     raw = path.read_bytes()
     index = np.frombuffer(raw[-4 - 16 * per : -4], "<u8").reshape(-1, 2).copy()
@@ -260,8 +261,8 @@ def _h5_mask_chunk(data: bytes | None) -> Callable[[Path], None]:
             masks = f["masks"][...]
             del f["masks"]
             frames = 1 if data is None else 1000
-            d = f.create_dataset("masks", shape=masks.shape, maxshape=(None, *masks.shape[1:]), dtype=masks.dtype,
-                                 chunks=(frames, *masks.shape[1:]), compression="gzip")
+            d = f.create_dataset("masks", shape=masks.shape, maxshape=(None, *masks.shape[1:]),
+                                 dtype=masks.dtype, chunks=(frames, *masks.shape[1:]), compression="gzip")
             if data is None:
                 d[:3], d[4:] = masks[:3], masks[4:]
             else:
@@ -304,7 +305,8 @@ HOSTILE: dict[str, tuple[str, Callable[[Path], None]]] = {
     "gzip bomb in a mask chunk": ("h5", _h5_mask_chunk(gzip_bomb())),
     "10^8 frames declared": ("zarr", _forge_frames(10**8)),
     "3x10^9 frames declared": ("h5", _forge_frames(3 * 10**9)),
-    "a mask chunk missing": ("zarr h5", lambda p: rewrite_shard(p, 1, None) if p.is_dir() else _h5_mask_chunk(None)(p)),
+    "a mask chunk missing": ("zarr h5", lambda p: rewrite_shard(p, 1, None) if p.is_dir()
+                             else _h5_mask_chunk(None)(p)),
     "the mask shard missing": ("zarr", _remove("masks/c")),
     "an area chunk missing": ("zarr", _remove("area/c/0")),
     "masks an external link": ("h5", _h5_link("external")),

@@ -34,7 +34,9 @@ todo = json.loads(sys.stdin.read())
 out = []
 for args in todo["invocations"]:
     r = CliRunner().invoke(main, args)
-    err = r.stderr if r.exit_code in (0, 1, 2) else r.stderr + "".join(traceback.format_exception(*r.exc_info))
+    err = r.stderr
+    if r.exit_code not in (0, 1, 2):
+        err += "".join(traceback.format_exception(*r.exc_info))
     out.append([r.exit_code, r.stdout, err])
 for store in todo["stores"]:
     try:
@@ -71,7 +73,8 @@ def assert_refused(result: list, what: str, names: str) -> None:
 def hostile(tmp_path_factory):
     root = tmp_path_factory.mktemp("hostile")
     valid = {"zarr": make_valid(root / "v.zarr"), "h5": make_valid(root / "v.h5")}
-    (root / "p.csv").write_text("split,example_id,d1\n" + "".join(f"tiny,tiny/{i:06d},0.3\n" for i in range(4)))
+    rows = "".join(f"tiny,tiny/{i:06d},0.3\n" for i in range(4))
+    (root / "p.csv").write_text("split,example_id,d1\n" + rows)
     return root, broken_stores(root, valid, HOSTILE)
 
 
@@ -83,7 +86,8 @@ def store_commands(store: str, out: str) -> dict[str, tuple[list[str], str | Non
         "show": (["show", store, "tiny/000001", "-o", f"{out}.png"], f"{out}.png"),
         "score": (["score", "p.csv", "--data", store], None),
         "baseline": (["baseline", "vosde", store, "-o", f"{out}.csv"], f"{out}.csv"),
-        "convert": (["convert", store, other], other), "export": (["export", store, "-o", f"{out}-hub"], f"{out}-hub"),
+        "convert": (["convert", store, other], other),
+        "export": (["export", store, "-o", f"{out}-hub"], f"{out}-hub"),
     }
 
 
@@ -113,10 +117,13 @@ def test_every_store_reader_refuses_a_hostile_store(hostile, name, tmp_path):
 
 def test_validate_names_each_hostile_class(hostile):
     root, stores = hostile
-    expect = {"zstd bomb in a mask chunk (zarr)": "does not decode", "gzip bomb in a mask chunk (h5)": "inflate",
+    expect = {"zstd bomb in a mask chunk (zarr)": "does not decode",
+              "gzip bomb in a mask chunk (h5)": "inflate",
               "10^8 frames declared (zarr)": "times the", "3x10^9 frames declared (h5)": "times the",
-              "a mask chunk missing (zarr)": "missing", "a mask chunk missing (h5)": "holds 11 of its 12 chunks",
-              "masks an external link (h5)": "ExternalLink", "masks a virtual dataset (h5)": "virtual dataset",
+              "a mask chunk missing (zarr)": "missing",
+              "a mask chunk missing (h5)": "holds 11 of its 12 chunks",
+              "masks an external link (h5)": "ExternalLink",
+              "masks a virtual dataset (h5)": "virtual dataset",
               "attributes nested 100,000 deep (zarr)": "nested deeper"}
     results = run_limited(root, [["validate", str(stores[n].relative_to(root))] for n in expect])
     for (name, fragment), (_, out, _) in zip(expect.items(), results, strict=True):
@@ -134,7 +141,8 @@ def test_json_everywhere_is_depth_bounded(tmp_path):
         ["leaderboard", "--dir", "board"],
         ["predict", "run", "--data", ".", "-o", "p.csv", "--device", "cpu"],
     ])
-    for what, result, names in zip(("--param", "leaderboard"), results[:2], ("--param", "e.json"), strict=True):
+    pairs = (("--param", "--param"), ("leaderboard", "e.json"))
+    for (what, names), result in zip(pairs, results[:2], strict=True):
         assert_refused(result, what, names)
         assert "nested deeper than 64" in result[2], (what, result[2])
     assert_refused(results[2], "run config", "not a training run")  # a config odms-data did not write
@@ -152,8 +160,9 @@ def test_a_run_folder_is_checked_before_anything_is_built(tmp_path):
     make_valid(tmp_path / "v.zarr")
     torch.save([1, 2, 3], tmp_path / "list" / "best.pt")
     torch.save({"iteration": 3, "model": [torch.zeros(2)]}, tmp_path / "no-model" / "best.pt")
-    results = run_limited(tmp_path, [["predict", name, "--data", "v.zarr", "-o", f"{name}.csv", "--device", "cpu"]
-                                     for name in runs], budget=RUN_BUDGET)
+    invocations = [["predict", name, "--data", "v.zarr", "-o", f"{name}.csv", "--device", "cpu"]
+                   for name in runs]
+    results = run_limited(tmp_path, invocations, budget=RUN_BUDGET)
     assert_refused(results[0], "huge", "n_obs must be at most 100")
     assert_refused(results[1], "list", "holds a list, not a dict")
     assert_refused(results[2], "no-model", "'model' is list, not dict")

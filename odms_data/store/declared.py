@@ -39,7 +39,9 @@ def storage_problems(backend: Backend, names: Iterable[str]) -> list[str]:
     """Every way the arrays `names` of an open store break the rules above, one line each."""
     arrays = {name: backend.array(name) for name in names}
     check = _hdf5_problems if backend.kind == "hdf5" else _zarr_problems
-    return _size_problems(backend, arrays) or [p for name, arr in arrays.items() for p in check(backend, name, arr)]
+    return _size_problems(backend, arrays) or [
+        p for name, arr in arrays.items() for p in check(backend, name, arr)
+    ]
 
 
 def _chunk_problems(name: str, arr: Any, chunks: tuple[int, ...]) -> list[str]:
