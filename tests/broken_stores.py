@@ -158,11 +158,12 @@ DAMAGE: dict[str, tuple[str, Callable[[Path], None]]] = {
 }
 
 
-def broken_stores(root: Path, valid: dict[str, Path]) -> dict[str, Path]:
-    """Every damage applied to a copy of the valid store of each backend it applies to:
-    '<damage> (<backend>)' -> path under `root`."""
+def broken_stores(root: Path, valid: dict[str, Path],
+                  damages: dict[str, tuple[str, Callable[[Path], None]]] | None = None) -> dict[str, Path]:
+    """Every damage (default: DAMAGE) applied to a copy of the valid store of each backend it
+    applies to: '<damage> (<backend>)' -> path under `root`."""
     out = {}
-    for i, (name, (backends, damage)) in enumerate(DAMAGE.items()):
+    for i, (name, (backends, damage)) in enumerate((DAMAGE if damages is None else damages).items()):
         for backend in backends.split():
             src = valid[backend]
             dst = root / f"b{i:02d}-{backend}{src.suffix}"
@@ -170,3 +171,145 @@ def broken_stores(root: Path, valid: dict[str, Path]) -> dict[str, Path]:
             damage(dst)
             out[f"{name} ({backend})"] = dst
     return out
+
+
+# --- hostile stores: made to cost a reader memory, or to read as something they are not ---------
+BOMB_BYTES = 2**32  # what a bomb decodes to: far past the memory the untrusted-read tests allow
+
+
+def zstd_bomb() -> bytes:
+    """A zstd frame of BOMB_BYTES zeros (about 32 KB), its size not in its header."""
+    import zstandard
+
+    c = zstandard.ZstdCompressor(level=1, write_content_size=False).compressobj()
+    zeros = bytes(2**24)
+    return b"".join(c.compress(zeros) for _ in range(BOMB_BYTES // len(zeros))) + c.flush()
+
+
+def gzip_bomb() -> bytes:
+    """A zlib stream of BOMB_BYTES zeros (about 4 MB), as HDF5's gzip filter stores a chunk: after
+    a full flush, each block of zeros deflates to the same bytes, so one is made and repeated."""
+    import zlib
+
+    zeros, n = bytes(2**24), BOMB_BYTES // 2**24
+    c = zlib.compressobj(9)
+    first = c.compress(zeros) + c.flush(zlib.Z_FULL_FLUSH)
+    piece = c.compress(zeros) + c.flush(zlib.Z_FULL_FLUSH)
+    end = c.flush()[:-4]  # the final block, without the checksum of two blocks
+    adler = 1
+    for _ in range(n):
+        adler = zlib.adler32(zeros, adler)
+    return first + piece * (n - 1) + end + adler.to_bytes(4, "big")
+
+
+def rewrite_shard(store: Path, k: int, data: bytes | None) -> None:
+    """Chunk k of the first mask shard of a Zarr store replaced by `data` (None: marked missing)."""
+    import google_crc32c
+
+    meta = json.loads((store / "masks" / "zarr.json").read_text())
+    shard = meta["chunk_grid"]["configuration"]["chunk_shape"][0]
+    per = shard // meta["codecs"][0]["configuration"]["chunk_shape"][0]
+    path = store / "masks" / "c" / "0" / "0" / "0"
+    raw = path.read_bytes()
+    index = np.frombuffer(raw[-4 - 16 * per : -4], "<u8").reshape(-1, 2).copy()
+    chunks = [raw[o : o + n] for o, n in index.tolist()]
+    chunks[k] = data or b""
+    body = b"".join(chunks)
+    index[:, 1] = [len(c) for c in chunks]
+    index[:, 0] = np.cumsum([0] + [len(c) for c in chunks[:-1]])
+    if data is None:
+        index[k] = 2**64 - 1
+    tail = index.astype("<u8").tobytes()
+    path.write_bytes(body + tail + google_crc32c.value(tail).to_bytes(4, "little"))
+
+
+def _zstd_bomb_in(rel: str) -> Callable[[Path], None]:
+    def damage(path: Path) -> None:
+        (path / rel).write_bytes(zstd_bomb())
+    return damage
+
+
+def _forge_frames(n: int) -> Callable[[Path], None]:
+    """Every per-frame array (and counts.frames) declares n frames; nothing else is written."""
+    def damage(path: Path) -> None:
+        if path.is_dir():
+            for name in FRAME_NAMES:
+                meta_path = path / name / "zarr.json"
+                meta = json.loads(meta_path.read_text())
+                meta["shape"][0] = n
+                meta_path.write_text(json.dumps(meta))
+        else:
+            with h5py.File(path, "r+") as f:
+                for name in FRAME_NAMES:
+                    d = f[name]
+                    shape, chunks, dtype = (n, *d.shape[1:]), d.chunks, d.dtype
+                    del f[name]
+                    f.create_dataset(name, shape=shape, chunks=chunks, dtype=dtype, compression="gzip")
+        edit_attrs(lambda a: a["counts"].update(frames=n))(path)
+    return damage
+
+
+FRAME_NAMES = ("masks", "z", "depth", "area", "largest_area", "bbox")
+
+
+def _h5_mask_chunk(data: bytes | None) -> Callable[[Path], None]:
+    """The masks of an HDF5 store rewritten: one chunk of 1000 frames (whose size field holds
+    megabytes) given as `data`, its raw deflated bytes; or, for None, one frame a chunk with
+    frame 3's (the first of example 1) left unwritten."""
+    def damage(path: Path) -> None:
+        with h5py.File(path, "r+") as f:
+            masks = f["masks"][...]
+            del f["masks"]
+            frames = 1 if data is None else 1000
+            d = f.create_dataset("masks", shape=masks.shape, maxshape=(None, *masks.shape[1:]),
+                                 dtype=masks.dtype, chunks=(frames, *masks.shape[1:]), compression="gzip")
+            if data is None:
+                d[:3], d[4:] = masks[:3], masks[4:]
+            else:
+                d.id.write_direct_chunk((0, 0, 0), data)
+    return damage
+
+
+def _h5_link(kind: str) -> Callable[[Path], None]:
+    """`masks` replaced by an external link or a virtual dataset onto a copy in another file."""
+    def damage(path: Path) -> None:
+        other = path.with_name(path.stem + "-other.h5")
+        with h5py.File(path, "r+") as f:
+            masks = f["masks"][...]
+            with h5py.File(other, "w") as o:
+                o.create_dataset("masks", data=masks)
+            del f["masks"]
+            if kind == "external":
+                f["masks"] = h5py.ExternalLink(other.name, "masks")
+            else:
+                layout = h5py.VirtualLayout(shape=masks.shape, dtype=masks.dtype)
+                layout[...] = h5py.VirtualSource(other.name, "masks", shape=masks.shape)
+                f.create_virtual_dataset("masks", layout)
+    return damage
+
+
+def _deep_json(path: Path) -> None:
+    deep = "[" * 100_000 + "]" * 100_000
+    if path.is_dir():
+        text = (path / "zarr.json").read_text()
+        (path / "zarr.json").write_text(text.replace('"attributes": {', f'"attributes": {{"x": {deep}, ', 1))
+    else:
+        with h5py.File(path, "r+") as f:
+            f.attrs["odms"] = f.attrs["odms"].replace("{", '{"x": ' + deep + ", ", 1)
+
+
+# name -> (backends it applies to, damage): each must be refused with one line, in bounded memory
+HOSTILE: dict[str, tuple[str, Callable[[Path], None]]] = {
+    "zstd bomb in a mask chunk": ("zarr", lambda p: rewrite_shard(p, 1, zstd_bomb())),
+    "zstd bomb in a z chunk": ("zarr", _zstd_bomb_in("z/c/0")),
+    "gzip bomb in a mask chunk": ("h5", _h5_mask_chunk(gzip_bomb())),
+    "10^8 frames declared": ("zarr", _forge_frames(10**8)),
+    "3x10^9 frames declared": ("h5", _forge_frames(3 * 10**9)),
+    "a mask chunk missing": ("zarr h5", lambda p: rewrite_shard(p, 1, None) if p.is_dir()
+                             else _h5_mask_chunk(None)(p)),
+    "the mask shard missing": ("zarr", _remove("masks/c")),
+    "an area chunk missing": ("zarr", _remove("area/c/0")),
+    "masks an external link": ("h5", _h5_link("external")),
+    "masks a virtual dataset": ("h5", _h5_link("virtual")),
+    "attributes nested 100,000 deep": ("zarr h5", _deep_json),
+}

@@ -15,7 +15,7 @@ PACKAGE = Path(odms_data.__file__).resolve().parent
 
 # the rank of each top-level module and folder; a module may import lower ranks and its own folder
 LAYERS = {
-    "_version": 0, "errors": 0,
+    "_version": 0, "errors": 0, "safe_json": 1,
     "protocol": 1, "extras": 1, "resources": 1, "paths": 1, "shown_text": 1, "parallel": 1, "outputs": 1,
     "interrupts": 1,
     "store": 2,

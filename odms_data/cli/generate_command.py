@@ -6,6 +6,7 @@ import json
 
 import click
 
+from .. import safe_json
 from ..errors import InputError
 from ..extras import optional
 from ..simulate.params import (
@@ -27,9 +28,9 @@ def _parse_param(values: tuple[str, ...]) -> dict:
             raise InputError(f"--param '{item}': expected NAME=VALUE, e.g. --param "
                              f"{name}={json.dumps(getattr(PRESETS['standard'], name))}")
         try:
-            out[key] = json.loads(raw)
-        except json.JSONDecodeError:
-            raise InputError(f"--param '{item}': value is not a number or JSON list") from None
+            out[key] = safe_json.loads(raw, f"--param '{item}'")
+        except InputError as e:
+            raise InputError(f"{e}; the value must be a number or JSON list") from None
     return out
 
 

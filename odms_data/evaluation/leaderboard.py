@@ -16,6 +16,7 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
+from .. import safe_json
 from .._version import __version__
 from ..errors import InputError
 from ..protocol import ABS_UNITS, FAMILIES, OFFICIAL_DOMAINS, official_name
@@ -97,10 +98,7 @@ def load_entries(folder: Path | None = None) -> list[LeaderboardEntry]:
     entries: list[LeaderboardEntry] = []
     seen: dict[str, Path] = {}
     for path in sorted(folder.glob("*.json")):
-        try:
-            entry = LeaderboardEntry.from_json(json.loads(path.read_text(encoding="utf-8")), str(path))
-        except json.JSONDecodeError as e:
-            raise InputError(f"{path}: not valid JSON ({e})") from None
+        entry = LeaderboardEntry.from_json(safe_json.load_file(path), str(path))
         if entry.name in seen:
             raise InputError(f"{path}: entry name {entry.name!r} is also used by {seen[entry.name]}")
         seen[entry.name] = path

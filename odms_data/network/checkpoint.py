@@ -30,7 +30,13 @@ class Checkpoint:
         if isinstance(self.iteration, bool) or not isinstance(self.iteration, int) or self.iteration < 0:
             raise InputError(f"checkpoint iteration {self.iteration!r} is not a whole number >= 0")
         if not isinstance(self.model, dict):
-            raise InputError("checkpoint holds no weights (model is not a state dict)")
+            kind = type(self.model).__name__
+            raise InputError(f"checkpoint holds no weights ('model' is {kind}, not dict)")
+        import torch
+
+        bad = [k for k, t in self.model.items() if not isinstance(k, str) or not isinstance(t, torch.Tensor)]
+        if bad:
+            raise InputError(f"checkpoint weight {bad[0]!r} is not a tensor")
         if self.seconds is not None and not (math.isfinite(self.seconds) and self.seconds >= 0):
             raise InputError(f"checkpoint seconds {self.seconds!r} is not a time")
         if self.best_per_set is not None and not (
@@ -55,7 +61,10 @@ class Checkpoint:
     @classmethod
     def from_json(cls, d: Any, where: str) -> Checkpoint:
         """From a loaded checkpoint; InputError naming `where` when it is not one."""
-        if not isinstance(d, dict) or "iteration" not in d or "model" not in d:
+        if not isinstance(d, dict):
+            raise InputError(f"{where}: not an odms-data checkpoint (it holds a {type(d).__name__}, "
+                             "not a dict)")
+        if "iteration" not in d or "model" not in d:
             raise InputError(f"{where}: not an odms-data checkpoint (no iteration and weights)")
         unknown = sorted(set(d) - set(cls.__dataclass_fields__))
         if unknown:

@@ -25,8 +25,9 @@ from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 from typing import IO, Any
 
+from .. import safe_json
 from .._version import __version__
-from ..errors import InputError
+from ..errors import InputError, OdmsError
 from ..outputs import Kind, replaced_via_partial
 from ..simulate.params import PRESETS
 from ..store.manifests import load_manifest, split_names
@@ -36,6 +37,9 @@ CONFIG, LAST, BEST, CURVES, PLOT = "config.json", "last.pt", "best.pt", "curves.
 CURVE_COLUMNS = ("iteration", "seconds", "set", "loss", "percent_error")
 TRAIN, VAL = "train", "val"  # curve sets besides each validation store's split
 PER_SET = "per-set"  # predict's checkpoint choice: each set's own best (the authors' protocol)
+# sane limits, checked before anything is built: a network of n_obs inputs takes 26 KB per input
+# and a batch n_obs x 50 KB per example, so a config.json from a stranger cannot ask for gigabytes
+MAX_OBS, MAX_BATCH, MAX_ITERATIONS = 100, 8192, 10**9
 AddRow = Callable[[int, float, str, float, float], None]  # (iteration, seconds, set, loss, percent error)
 
 
@@ -64,6 +68,10 @@ class TrainConfig:
             for name, least in (("n_obs", 2), ("seed", 0), ("iterations", 1), ("batch_size", 1),
                                 ("val_every", 1))
             if getattr(self, name) < least
+        ] + [
+            f"{name} must be at most {most}, got {getattr(self, name)}"
+            for name, most in (("n_obs", MAX_OBS), ("batch_size", MAX_BATCH), ("iterations", MAX_ITERATIONS))
+            if getattr(self, name) > most
         ]
         if self.preset not in PRESETS:
             problems.append(f"unknown preset '{self.preset}' (choose from {', '.join(PRESETS)})")
@@ -149,8 +157,8 @@ class RunFolder:
         if path.is_symlink() or not path.is_file() or path.stat().st_size > 1 << 20:
             return False
         try:
-            d = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, ValueError, UnicodeDecodeError, RecursionError):
+            d = safe_json.load_file(path)
+        except OdmsError:
             return False
         return (isinstance(d, dict) and isinstance(d.get("odms_data"), str)
                 and isinstance(d.get("config"), dict))
@@ -159,7 +167,7 @@ class RunFolder:
         if not self.is_run():
             raise InputError(f"{self.path}: not a training run (no {CONFIG} written by odms-data); "
                              "see `odms-data train`")
-        return TrainConfig.from_json(json.loads(self.file(CONFIG).read_text(encoding="utf-8"))["config"])
+        return TrainConfig.from_json(safe_json.load_file(self.file(CONFIG))["config"])
 
     def check(self, config: TrainConfig, overwrite: bool) -> bool:
         """Whether the folder can hold a run of `config`: True when it holds one to resume

@@ -3,13 +3,13 @@ on it, the forward pass and the depths it means, and a checkpoint read back."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterator
 from pathlib import Path
 
 import torch
 from torch.utils.data import DataLoader
 
-from ..errors import InputError
+from ..errors import InputError, OdmsError
 from ..loaders.targets import depth
 from ..loaders.torch_loader import StoreDataset
 from . import odn
@@ -54,9 +54,19 @@ def store_dataset(path: str, config: TrainConfig) -> StoreDataset:
     return StoreDataset(path, odn.transform(config.n_obs, config.radial))
 
 
-def store_batches(dataset: StoreDataset, workers: int, pin: bool) -> Iterable[Batch]:
-    """The dataset's examples in row order, EVAL_BATCH at a time."""
-    return DataLoader(dataset, batch_size=EVAL_BATCH, num_workers=workers, pin_memory=pin)
+WORKER_ERROR = "in DataLoader worker process"  # how torch says an exception came from a worker
+
+
+def store_batches(dataset: StoreDataset, workers: int, pin: bool) -> Iterator[Batch]:
+    """The store's examples as network inputs, in row order, EVAL_BATCH at a time. A problem a
+    worker meets (a damaged chunk) is raised with its own one-line message: torch raises it again
+    with the worker's traceback as its message."""
+    try:
+        yield from DataLoader(dataset, batch_size=EVAL_BATCH, num_workers=workers, pin_memory=pin)
+    except OdmsError as e:
+        if WORKER_ERROR not in str(e):
+            raise
+        raise type(e)(str(e).rstrip().splitlines()[-1].split(": ", 1)[-1]) from None
 
 
 def read_checkpoint(path: Path) -> Checkpoint:

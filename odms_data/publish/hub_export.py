@@ -17,13 +17,13 @@ from its recorded digest is refused, since the card publishes the digests. Needs
 from __future__ import annotations
 
 import hashlib
-import json
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from .. import safe_json
+from ..errors import InputError, OdmsError
 from ..extras import optional
 from ..outputs import Kind, atomic_folder
 from ..store.digest import check_recorded_digest
@@ -118,8 +118,8 @@ def _not_an_export(path: Path) -> str | None:
     if not any(path.iterdir()):
         return None
     try:
-        creator = json.loads((path / "croissant.json").read_text(encoding="utf-8"))["creator"]["name"]
-    except (OSError, ValueError, KeyError, TypeError):
+        creator = safe_json.load_file(path / "croissant.json")["creator"]["name"]
+    except (OdmsError, KeyError, TypeError):
         creator = None
     if not (isinstance(creator, str) and creator.startswith("odms-data ")):
         return "is not an earlier export (no croissant.json written by odms-data)"

@@ -12,6 +12,7 @@ from abc import ABC, abstractmethod
 from pathlib import Path
 from typing import Any, ClassVar, Literal, Protocol
 
+from .. import safe_json
 from ..errors import StoreError
 from .format import format_of_name
 
@@ -66,6 +67,7 @@ class Backend(ABC):
     # True: workers write whole shards of masks into the store themselves; False: they return the
     # compressed chunks and the one writer stores them (`write_raw_chunk`)
     workers_write_shards: ClassVar[bool]
+    path: str
 
     @abstractmethod
     def __init__(self, path: str, mode: Mode) -> None: ...
@@ -127,9 +129,14 @@ class ZarrBackend(Backend):
     def __init__(self, path: str, mode: Mode) -> None:
         import zarr
 
+        from .zarr_codec import use_bounded_zstd
+
+        use_bounded_zstd()
         self.path = path
         # a local store is created in the fresh folder outputs.Partial made, whose marker must stay
         zarr_mode = "a" if mode == "w" and not is_url(path) else mode
+        if mode != "w":
+            self._check_metadata("")
         try:
             self.group = zarr.open_group(
                 store=str(path), mode=zarr_mode, zarr_format=3, storage_options=storage_options(path)
@@ -147,7 +154,14 @@ class ZarrBackend(Backend):
         except Exception as e:
             raise StoreError(f"{self.path}: cannot list arrays ({type(e).__name__}: {e})") from e
 
+    def _check_metadata(self, name: str) -> None:
+        """Bound the size and depth of a local zarr.json before zarr parses it (safe_json.py)."""
+        meta = Path(self.path) / name / "zarr.json"
+        if not is_url(self.path) and meta.is_file():
+            safe_json.load_file(meta, StoreError)
+
     def array(self, name: str) -> Any:
+        self._check_metadata(name)
         try:
             return self.group[name]
         except Exception as e:  # malformed metadata surfaces as many exception types
@@ -214,7 +228,7 @@ class Hdf5Backend(Backend):
     def __init__(self, path: str, mode: Mode) -> None:
         import h5py
 
-        self.path = path
+        self.path, self.mode = path, mode
         self._raw: _FailSafeFile | None = None
         if mode == "w":
             self._raw = _FailSafeFile(path, "w+b")
@@ -238,13 +252,18 @@ class Hdf5Backend(Backend):
     def array(self, name: str) -> Any:
         import h5py
 
+        from .hdf5_reader import BoundedDataset
+
         try:
-            arr = self.file[name]
+            link = self.file.get(name, getlink=True)
+            arr = self.file[name] if isinstance(link, h5py.HardLink) else None
         except Exception as e:
             raise StoreError(f"{self.path}: array '{name}' is unreadable ({type(e).__name__}: {e})") from e
+        if arr is None:  # resolving a soft or external link would read another object or file
+            raise StoreError(f"{self.path}: '{name}' is a {type(link).__name__}, not an array of the file")
         if not isinstance(arr, h5py.Dataset):  # a damaged header can turn it into a group or type
             raise StoreError(f"{self.path}: '{name}' is a {type(arr).__name__}, not an array")
-        return arr
+        return BoundedDataset(arr) if self.mode == "r" else arr
 
     def read_attrs(self) -> dict[str, Any] | None:
         try:
@@ -253,10 +272,9 @@ class Hdf5Backend(Backend):
             raise StoreError(f"{self.path}: attributes are unreadable ({type(e).__name__}: {e})") from e
         if raw is None:
             return None
-        try:
-            attrs = json.loads(raw)
-        except (TypeError, ValueError) as e:
-            raise StoreError(f"{self.path}: attribute 'odms' is not JSON ({e})") from e
+        if not isinstance(raw, str | bytes):
+            raise StoreError(f"{self.path}: attribute 'odms' is not a JSON string")
+        attrs = safe_json.loads(raw, f"{self.path}: attribute 'odms'", StoreError)
         if not isinstance(attrs, dict):
             raise StoreError(f"{self.path}: attribute 'odms' is not a JSON object")
         return attrs

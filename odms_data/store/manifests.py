@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import difflib
-import json
 from dataclasses import dataclass
 from typing import Any
 
+from .. import safe_json
 from ..errors import DigestMismatchError, InputError
 from ..resources import resource_dir
 from .format import StoreAttrs
@@ -44,7 +44,7 @@ def load_manifest(name: str) -> SplitManifest:
         close = difflib.get_close_matches(name, split_names(), n=1)
         hint = f" (did you mean {close[0]}?)" if close else ""
         raise InputError(f"unknown split '{name}'{hint}; known splits: {', '.join(split_names())}")
-    return SplitManifest.from_json(json.loads(path.read_text()))
+    return SplitManifest.from_json(safe_json.load_file(path))
 
 
 def check_against_manifest(attrs: StoreAttrs, manifest: SplitManifest, where: str) -> None:

@@ -8,12 +8,12 @@ returns None for anything else, which is then read and written through zarr.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from .. import safe_json
 from ..errors import StoreError
 from .backends import is_url
 
@@ -73,7 +73,7 @@ class ShardLayout:
             return None
         root = Path(store_path) / "masks"
         try:
-            meta = json.loads((root / "zarr.json").read_text())
+            meta = safe_json.load_file(root / "zarr.json", StoreError)
             (codec,) = meta["codecs"]
             conf = codec["configuration"]
             inner = [c["name"] for c in conf["codecs"]]

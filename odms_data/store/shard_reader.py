@@ -11,17 +11,16 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import StoreError
+from .chunk_codecs import zstd_decode
 from .shard_layout import MISSING, ShardLayout, decode_index, index_bytes
 
 
 class ShardReader:
     def __init__(self, layout: ShardLayout) -> None:
-        from numcodecs import Zstd
 
         self.layout, self.shape, self.chunk = layout, layout.shape, layout.chunk
         self.per_shard = layout.per_shard
         self.frame_bytes = int(np.prod(self.shape[1:]))
-        self._zstd = Zstd()
 
     @classmethod
     def open(cls, store_path: str) -> ShardReader | None:
@@ -29,32 +28,30 @@ class ShardReader:
         return cls(layout) if layout else None
 
     def _chunks(self, s: int, ks: range) -> list[np.ndarray]:
-        """Packed frames of chunks ks of shard s (full chunk length; missing chunks are zeros)."""
+        """Packed frames of chunks ks of shard s (full chunk length). A store is written whole:
+        a missing shard or chunk is damage, and no chunk decodes to more than its own size."""
         path = self.layout.shard_path(s)
         out_bytes = self.chunk * self.frame_bytes
-        zeros = np.zeros(out_bytes, np.uint8)
         try:
             with open(path, "rb") as f:
                 n = index_bytes(self.per_shard)
-                f.seek(-n, 2)
+                data_end = f.seek(-n, 2)
                 index = decode_index(f.read(n), path)[ks.start : ks.stop]
-                present = index[:, 0] != MISSING
-                if not present.any():
-                    return [zeros] * len(ks)
-                lo = int(index[present, 0].min())
-                hi = int((index[present, 0] + index[present, 1]).max())
+                if (index[:, 0] == MISSING).any():
+                    k = ks.start + int(np.argmax(index[:, 0] == MISSING))
+                    raise StoreError(f"{path}: chunk {k} of the shard is missing (a damaged store)")
+                if ((index[:, 0] > data_end) | (index[:, 1] > data_end - index[:, 0])).any():
+                    raise StoreError(f"{path}: the shard index points past the shard's chunks")
+                lo = int(index[:, 0].min())
+                hi = int((index[:, 0] + index[:, 1]).max())
                 f.seek(lo)
                 span = f.read(hi - lo)  # the chunks of a range lie together: one read
-            out = []
-            for (offset, nbytes), ok in zip(index, present, strict=True):
-                data = self._zstd.decode(span[int(offset) - lo : int(offset + nbytes) - lo]) if ok else zeros
-                if len(data) != out_bytes:
-                    raise StoreError(f"{path}: a chunk holds {len(data)} bytes, expected {out_bytes}")
-                out.append(np.frombuffer(data, np.uint8))
-            return out
+            view = memoryview(span)
+            return [np.frombuffer(zstd_decode(view[int(o) - lo : int(o + n) - lo], out_bytes), np.uint8)
+                    for o, n in index]
         except FileNotFoundError:
-            return [zeros] * len(ks)
-        except (OSError, RuntimeError, ValueError) as e:  # numcodecs raises RuntimeError on bad data
+            raise StoreError(f"{path}: shard {s} of the masks is missing (a damaged store)") from None
+        except (OSError, ValueError) as e:
             raise StoreError(f"{path}: unreadable ({e})") from e
 
     def read(self, start: int, stop: int) -> np.ndarray:

@@ -10,7 +10,6 @@ owns; this module only says what a store is (`STORE`): an existing path is refus
 
 from __future__ import annotations
 
-import json
 import os
 from contextlib import ExitStack
 from dataclasses import dataclass
@@ -19,7 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError, StoreError, StoreExistsError, StoreLockedError
+from .. import safe_json
+from ..errors import InputError, OdmsError, StoreError, StoreExistsError, StoreLockedError
 from ..interrupts import uninterrupted
 from ..outputs import DISK_FULL, Kind, Partial, check_replaceable, output_lock, refuse_existing, write_error
 from .backends import HDF5_MAGIC, Backend, detect_format, is_url, open_backend
@@ -64,9 +64,9 @@ def _not_a_store(path: Path) -> str | None:
         if not entries:
             return None
         try:
-            meta = json.loads((path / "zarr.json").read_text())
+            meta = safe_json.load_file(path / "zarr.json")
             ours = isinstance(meta.get("attributes", {}).get(ATTRS_KEY), dict)
-        except (OSError, ValueError, AttributeError):
+        except (OdmsError, AttributeError):
             ours = False
         if not ours:
             return (f"is a folder of {len(entries)} entr{'y' if len(entries) == 1 else 'ies'} that is not "
@@ -264,9 +264,9 @@ def _check_new_url_store(url: str, overwrite: bool) -> None:
         if not entries:
             return None
         try:
-            meta = json.loads(fs.cat_file(f"{root.rstrip('/')}/zarr.json"))
+            meta = safe_json.loads(fs.cat_file(f"{root.rstrip('/')}/zarr.json"), url)
             ours = isinstance(meta.get("attributes", {}).get(ATTRS_KEY), dict)
-        except (OSError, ValueError, AttributeError):
+        except (OSError, OdmsError, AttributeError):
             ours = False
         return None if ours else f"holds {len(entries)} entries that are not an odms-data store"
 

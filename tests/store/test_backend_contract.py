@@ -163,7 +163,7 @@ class StoreContract:
         else:
             data = bytearray(path.read_bytes())
             with self.open(path) as s:
-                chunk = s.backend.array("masks").id.get_chunk_info(3)  # frames 9..11
+                chunk = s.backend.array("masks").dset.id.get_chunk_info(3)  # frames 9..11
             data[chunk.byte_offset + chunk.size // 2] ^= 0xFF
             damaged.write_bytes(bytes(data))
         with self.open(damaged) as s, pytest.raises(StoreError):

@@ -1,0 +1,134 @@
+"""What the untrusted-read checks (issue 27) cost on the hot read paths, against the code before
+them, measured in the same run.
+
+Run by hand: `python benchmarks/untrusted_reads.py [--count 2000] [--repeat 5] [--base main]`.
+
+A store of --count generated examples is written in Zarr and HDF5 with this checkout. The code of
+--base (git archive of it) and this checkout's then each, in fresh interpreters taking turns:
+
+- open: `open_store` alone (the declared-shape checks: chunk listing, HDF5 link/filter/chunk
+  checks, the bytes on disk);
+- read: open and read every example with its masks (`Store.example`, what the loaders call; each
+  chunk decompressed with its bound);
+- score: the labels of the store and scoring a predictions file of every example (what `score`
+  does after parsing its arguments).
+
+Each figure is the median of --repeat child runs; the JSON goes to benchmarks/results/.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+CHILD = r"""
+import sys, time
+from pathlib import Path
+from odms_data.evaluation.ground_truth import load_truth
+from odms_data.evaluation.predictions import read_predictions
+from odms_data.evaluation.scoring import score
+from odms_data.store.reader import open_store
+import h5py, zarr, zarr.codecs  # imported before the clock, as the first store would
+store, what, preds = sys.argv[1], sys.argv[2], sys.argv[3]
+t = time.perf_counter()
+if what == "open":
+    open_store(store).close()
+elif what == "read":
+    with open_store(store) as s:
+        for i in range(len(s)):
+            s.example(i)
+else:
+    truth = load_truth(Path(store))
+    score(read_predictions(preds), {truth.split: truth})
+print(time.perf_counter() - t)
+"""
+
+
+def child_seconds(src: Path, store: Path, what: str, preds: Path) -> float:
+    env = {**os.environ, "PYTHONPATH": str(src)}
+    r = subprocess.run([sys.executable, "-c", CHILD, str(store), what, str(preds)], env=env,
+                       capture_output=True, text=True, cwd=store.parent)
+    if r.returncode:
+        raise SystemExit(f"{src}: {what} of {store} failed:\n{r.stderr[-2000:]}")
+    return float(r.stdout.strip().splitlines()[-1])
+
+
+def base_source(base: str, into: Path) -> str:
+    """The package and its data files at commit `base`, unpacked into `into`; its full hash."""
+    commit = subprocess.run(["git", "rev-parse", base], cwd=ROOT, check=True, capture_output=True,
+                            text=True).stdout.strip()
+    archive = subprocess.run(["git", "archive", commit, "odms_data", "schemas", "splits", "leaderboard",
+                              "setup.cfg"],
+                             cwd=ROOT, check=True, capture_output=True).stdout
+    subprocess.run(["tar", "-x", "-C", str(into)], input=archive, check=True)
+    return commit
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--count", type=int, default=2000)
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--base", default="main")
+    args = ap.parse_args()
+
+    from odms_data.evaluation.predictions import write_predictions
+    from odms_data.simulate.generate_store import generate
+    from odms_data.simulate.params import PRESETS
+    from odms_data.store.reader import open_store
+
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp_path = Path(tmp)
+        (tmp_path / "base").mkdir()
+        base_commit = base_source(args.base, tmp_path / "base")
+        stores = {}
+        for fmt, suffix in (("zarr", ".zarr"), ("hdf5", ".h5")):
+            stores[fmt] = tmp_path / f"bench{suffix}"
+            generate(str(stores[fmt]), args.count, PRESETS["standard"], 11, split="bench")
+        with open_store(str(stores["zarr"])) as s:
+            ids, split = s.example_ids, s.attrs.split
+        preds = tmp_path / "p.csv"
+        write_predictions(preds, [(split, e, 1.0) for e in ids])
+        sources = {"base": tmp_path / "base", "new": ROOT}
+        times: dict[str, list[float]] = {}
+        for _ in range(args.repeat):
+            for fmt, store in stores.items():
+                for what in ("open", "read", "score"):
+                    for name, src in sources.items():  # taking turns: the machine's load falls on both
+                        key = f"{fmt} {what} {name}"
+                        times.setdefault(key, []).append(child_seconds(src, store, what, preds))
+        figures = {}
+        for fmt in stores:
+            for what in ("open", "read", "score"):
+                base = statistics.median(times[f"{fmt} {what} base"])
+                new = statistics.median(times[f"{fmt} {what} new"])
+                figures[f"{fmt} {what}"] = {"base_s": round(base, 4), "new_s": round(new, 4),
+                                            "ratio": round(new / base, 3)}
+    git = {"cwd": ROOT, "capture_output": True, "text": True}
+    head = subprocess.run(["git", "rev-parse", "HEAD"], **git).stdout.strip()
+    dirty = subprocess.run(["git", "status", "--porcelain", "odms_data"], **git).stdout.strip()
+    result = {
+        "benchmark": "untrusted_reads",
+        "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+        "machine": {"platform": platform.platform(), "processor": platform.processor(),
+                    "cpus": os.cpu_count(), "load_average": os.getloadavg()},
+        "commit": head + (" (with uncommitted changes)" if dirty else ""), "base_commit": base_commit,
+        "examples": args.count, "repeat": args.repeat, "figures": figures,
+    }
+    out = ROOT / "benchmarks" / "results" / "untrusted_reads.json"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(result, indent=2) + "\n")
+    print(json.dumps(figures, indent=2))
+
+
+if __name__ == "__main__":
+    main()

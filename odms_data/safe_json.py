@@ -1,0 +1,53 @@
+"""Reading JSON that may come from a stranger: its size and nesting depth are bounded before it is
+parsed, so a file of 100,000 nested brackets is a one-line error, not a RecursionError.
+
+Every JSON read of odms-data (arguments, store attributes, zarr.json, run configs, manifests,
+leaderboard entries) goes through `loads` or `load_file`; the caller names the error type.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import InputError, OdmsError
+
+MAX_DEPTH = 64  # the deepest JSON odms-data writes is 4 levels
+MAX_BYTES = 64 * 2**20  # store attributes with a long oddity list stay far below
+_STRING = re.compile(rb'"(?:[^"\\]|\\.)*"', re.S)
+_OPEN, _CLOSE = np.frombuffer(b"[{", np.uint8), np.frombuffer(b"]}", np.uint8)
+
+
+def depth(raw: bytes) -> int:
+    """The deepest nesting of brackets in the JSON text `raw`, outside strings."""
+    skeleton = np.frombuffer(_STRING.sub(b"", raw), np.uint8)
+    steps = np.isin(skeleton, _OPEN).astype(np.int64) - np.isin(skeleton, _CLOSE)
+    return int(np.cumsum(steps).max(initial=0))
+
+
+def loads(text: str | bytes, where: str, error: type[OdmsError] = InputError,
+          max_bytes: int = MAX_BYTES) -> Any:
+    """The JSON value of `text`; `error` naming `where` when it is too large, too deep or not JSON."""
+    raw = text.encode("utf-8", "surrogatepass") if isinstance(text, str) else bytes(text)
+    if len(raw) > max_bytes:
+        raise error(f"{where}: JSON of {len(raw)} bytes, more than the {max_bytes} odms-data reads")
+    if depth(raw) > MAX_DEPTH:
+        raise error(f"{where}: JSON nested deeper than {MAX_DEPTH} levels")
+    try:
+        return json.loads(raw)
+    except ValueError as e:  # UnicodeDecodeError included
+        raise error(f"{where}: not valid JSON ({e})") from None
+
+
+def load_file(path: str | Path, error: type[OdmsError] = InputError, max_bytes: int = MAX_BYTES) -> Any:
+    """The JSON value of the file at `path`, read no further than `max_bytes` + 1."""
+    try:
+        with open(path, "rb") as f:
+            raw = f.read(max_bytes + 1)
+    except OSError as e:
+        raise error(f"{path}: cannot be read ({e.strerror or e})") from None
+    return loads(raw, str(path), error, max_bytes)
