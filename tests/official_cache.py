@@ -6,9 +6,9 @@ store format's version, the archive's sha256 and a digest of the code that decid
 content (odms_data/importers/, odms_data/store/, odms_data/benchmark.py: their syntax trees, not
 their comments or docstrings), so a change to that code imports anew instead of testing stale
 stores. An entry is built in a `.partial` sibling and renamed into place complete; its files are
-made read-only, so a test that writes into them fails instead of spoiling later runs. A
-`files.json` lists every file's size and, for the stores, its sha256; an entry that does not
-match it (a file lost, truncated or changed) is rebuilt. Entries of other keys unused for a week,
+made read-only, so a test that writes into them fails (unless run as root). A `files.json` lists
+every file's size and, for the stores, its sha256; an entry that does not match it (a file lost,
+truncated, or a store changed) is rebuilt. Entries of other keys unused for a week,
 and partial entries of runs that were killed, are removed.
 """
 
