@@ -14,6 +14,7 @@ import json
 import math
 import os
 import platform
+import shlex
 import subprocess
 import sys
 from pathlib import Path
@@ -76,7 +77,7 @@ def save(args: argparse.Namespace, title: str, baseline: dict[str, Any], rows: l
     with the same keys (RESULTS.md's table); `extra` anything else worth keeping."""
     script = Path(sys.argv[0]).name
     record = {"script": f"benchmarks/{script}", "title": title,
-              "command": " ".join(["python", f"benchmarks/{script}", *sys.argv[1:]]),
+              "command": shlex.join(["python", f"benchmarks/{script}", *sys.argv[1:]]),
               "date": _STARTED[0].strftime("%Y-%m-%d %H:%M UTC"), "commit": commit(), "machine": machine(),
               "notes": args.notes, "baseline": baseline, "rows": rows, **(extra or {})}
     args.results.mkdir(parents=True, exist_ok=True)

@@ -3,16 +3,18 @@
 A cache entry is the release's data/ folder and its eight imported stores, in
 ~/.cache/odms-data/test-stores/<key>/ (`ODMS_TEST_CACHE` names another folder). The key is the
 store format's version, the archive's sha256 and a digest of the code that decides the stores'
-content (odms_data/importers/, odms_data/store/, odms_data/protocol.py), so a change to any of
-them imports anew instead of testing stale stores. An entry is built in a `.partial` sibling and
-renamed into place complete; its files are made read-only, so a test that writes into them fails
-instead of spoiling later runs. A `files.json` lists every file's size and, for the stores, its
-sha256; an entry that does not match it (a file lost, truncated or changed) is rebuilt. Entries
-of other keys unused for a week are removed.
+content (odms_data/importers/, odms_data/store/, odms_data/protocol.py: their syntax trees, not
+their comments or docstrings), so a change to that code imports anew instead of testing stale
+stores. An entry is built in a `.partial` sibling and renamed into place complete; its files are
+made read-only, so a test that writes into them fails (unless run as root). A `files.json` lists
+every file's size and, for the stores, its sha256; an entry that does not match it (a file lost,
+truncated, or a store changed) is rebuilt. Entries of other keys unused for a week,
+and partial entries of runs that were killed, are removed.
 """
 
 from __future__ import annotations
 
+import ast
 import hashlib
 import json
 import os
@@ -44,12 +46,23 @@ def sha256(path: Path) -> str:
     return h.hexdigest()
 
 
+def _code(path: Path) -> str:
+    """The module's syntax tree without its docstrings: comments and docstrings do not change a key."""
+    tree = ast.parse(path.read_text())
+    for node in ast.walk(tree):
+        body = getattr(node, "body", None)
+        if isinstance(body, list) and body and isinstance(body[0], ast.Expr) \
+                and isinstance(body[0].value, ast.Constant) and isinstance(body[0].value.value, str):
+            node.body = body[1:] or [ast.Pass()]  # type: ignore[attr-defined]
+    return ast.dump(tree)
+
+
 def code_digest() -> str:
     h = hashlib.sha256()
     for name in CONTENT_CODE:
         root = PACKAGE / name
         for path in sorted(root.rglob("*.py")) if root.is_dir() else [root]:
-            h.update(str(path.relative_to(PACKAGE)).encode() + b"\0" + path.read_bytes() + b"\0")
+            h.update(f"{path.relative_to(PACKAGE)}\0{_code(path)}\0".encode())
     return h.hexdigest()
 
 
@@ -74,6 +87,16 @@ def _intact(entry: Path) -> bool:
         return json.loads(listing.read_text()) == _listing(entry)
     except (OSError, ValueError):
         return False
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 def _writable(root: Path) -> None:
@@ -103,6 +126,9 @@ def official_entry(archive: Path, import_release: Callable[[Path, Path], object]
         os.utime(entry)  # in use: not pruned
         return entry
     root.mkdir(parents=True, exist_ok=True)
+    for stale in root.glob("*.partial-*"):  # left by a run that was killed
+        if not _alive(int(stale.name.rsplit("-", 1)[1])):
+            _remove(stale)
     partial = root / f"{entry.name}.partial-{os.getpid()}"
     _remove(partial)
     partial.mkdir()
