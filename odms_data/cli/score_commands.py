@@ -98,6 +98,35 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
         click.echo(f"wrote {entry}", err=True)
 
 
+def baseline_stores(stores: tuple[str, ...], data: tuple[str, ...]) -> list[Path]:
+    """The stores a baseline runs on: STORES as split names or paths (each once), or with none
+    every store in the data folders, official splits first."""
+    paths = []
+    found = None
+    for s in stores:
+        if Path(s).exists():
+            paths.append(Path(s))
+            continue
+        found = found if found is not None else find_stores(data_locations(data))
+        if s not in found:
+            close = difflib.get_close_matches(s, list(found), n=1)
+            hint = f"; did you mean {close[0]}?" if close else ""
+            raise InputError(f"{s}: neither a store path nor a split in the data folders{hint} "
+                             f"(they hold: {', '.join(sorted(found))})")
+        paths.append(found[s])
+    if stores:
+        return list(stores_by_split(paths).values())  # a store named twice is scored once
+    found = find_stores(data_locations(data))
+    return [found[s] for s in sorted(found, key=split_order)]
+
+
+def write_baseline(output: str, rows: list[tuple[str, str, float]], overwrite: bool) -> None:
+    """Write a baseline's predictions file (schemas/PREDICTIONS.md)."""
+    from ..evaluation.predictions import write_predictions
+
+    write_predictions(output, rows, overwrite=overwrite)
+
+
 @click.group()
 def baseline():
     """Run a baseline method over stores and write its predictions file."""
@@ -124,28 +153,9 @@ def vosde(stores, data, n_obs, output, overwrite, as_json):
       odms-data baseline vosde robot-test driving-test --n-obs 5 -o vosde5.csv
       odms-data baseline vosde sim-val.zarr -o sim.csv && odms-data score sim.csv --data sim-val.zarr
     """
-    from ..evaluation.predictions import write_predictions
-
     check_new_file(output, overwrite, "-o", (".csv",))
-    paths = []
-    found = None
-    for s in stores:
-        if Path(s).exists():
-            paths.append(Path(s))
-            continue
-        found = found if found is not None else find_stores(data_locations(data))
-        if s not in found:
-            close = difflib.get_close_matches(s, list(found), n=1)
-            hint = f"; did you mean {close[0]}?" if close else ""
-            raise InputError(f"{s}: neither a store path nor a split in the data folders{hint} "
-                             f"(they hold: {', '.join(sorted(found))})")
-        paths.append(found[s])
-    if stores:
-        paths = list(stores_by_split(paths).values())  # a store named twice is scored once
-    else:
-        found = find_stores(data_locations(data))
-        paths = [found[s] for s in sorted(found, key=split_order)]
     rows, counts = [], []
+    paths = baseline_stores(stores, data)
     with progress(len(paths), "VOS-DE (stores)") as update:
         for p in paths:
             with open_store(str(p)) as s:
@@ -154,7 +164,7 @@ def vosde(stores, data, n_obs, output, overwrite, as_json):
             rows += r.rows()
             counts.append({"split": r.split, "examples": len(r.d1), "unsolvable": int(r.unsolvable.sum()),
                            "empty_masks": int(r.empty_masks.sum())})
-    write_predictions(output, rows, overwrite=overwrite)
+    write_baseline(output, rows, overwrite)
     if as_json:
         echo_json({"output": output, "n_obs": n_obs, "predictions": len(rows), "splits": counts})
         return
