@@ -1,4 +1,4 @@
-"""`odms-data score`, `odms-data baseline vosde` and `odms-data leaderboard`."""
+"""`odms-data score`, `odms-data baseline vosde | box-ls` and `odms-data leaderboard`."""
 
 from __future__ import annotations
 
@@ -10,6 +10,8 @@ import click
 
 from ..benchmark import FAMILIES, split_order
 from ..errors import InputError
+from ..evaluation.box_ls import DEFAULT_N_OBS as BOX_LS_N_OBS
+from ..evaluation.box_ls import box_ls as run_box_ls
 from ..evaluation.ground_truth import (
     DEFAULT_DATA,
     ENV_VAR,
@@ -173,6 +175,54 @@ def vosde(stores, data, n_obs, output, overwrite, as_json):
                    f"{c['empty_masks']} with an empty mask among the used observations")
     click.echo(f"wrote {output}: {len(rows)} predictions (VOS-DE, n = {n_obs})")
 
+
+
+@baseline.command("box-ls")
+@click.argument("stores", nargs=-1)
+@click.option("--data", multiple=True, type=click.Path(), help=DATA_HELP)
+@click.option("--n-obs", type=click.IntRange(min=2), default=BOX_LS_N_OBS, show_default=True,
+              help="Observations used per example (evenly spaced when an example has more).")
+@click.option("--odmd-conversion", is_flag=True,
+              help="Read the masks as ODMD's converted ODMS sets do (far-to-near order, robot windows "
+                   "from the far end, ODMD's camera-movement pairing); see docs/ODMD.md.")
+@click.option("-o", "--output", type=click.Path(), required=True, help="Predictions CSV to write.")
+@click.option("--overwrite", is_flag=True, help="Replace an existing predictions file.")
+@click.option("--json", "as_json", is_flag=True, help="Print the per-store counts as JSON.")
+def box_ls(stores, data, n_obs, odmd_conversion, output, overwrite, as_json):
+    """Box_LS (CVPR 2021), ODMD's least-squares baseline, from the boxes of the stored masks.
+
+    Each frame's box is ODMD's: the largest 8-connected region of its mask. STORES are split
+    names (looked up in the data folders) or store paths; none means every store in the data
+    folders. A zero-width box is a missing detection and takes the nearest observation's box; an
+    example with no solvable system predicts 0, as the authors' code does; the counts are printed.
+
+    \b
+    Examples:
+      odms-data baseline box-ls --data ./odms-stores -o box_ls.csv
+      odms-data baseline box-ls robot-test --odmd-conversion -o box_ls_odmd.csv
+      odms-data baseline box-ls sim-val.zarr -o sim.csv && odms-data score sim.csv --data sim-val.zarr
+    """
+    check_new_file(output, overwrite, "-o", (".csv",))
+    rows, counts = [], []
+    paths = baseline_stores(stores, data)
+    with progress(len(paths), "Box_LS (stores)") as update:
+        for p in paths:
+            with open_store(str(p)) as s:
+                r = run_box_ls(s, n_obs, odmd_conversion)
+            update(1)
+            rows += r.rows()
+            counts.append({"split": r.split, "examples": len(r.d1), "unsolvable": int(r.unsolvable.sum()),
+                           "missing_detections": int(r.missing.sum())})
+    write_baseline(output, rows, overwrite)
+    if as_json:
+        echo_json({"output": output, "n_obs": n_obs, "odmd_conversion": odmd_conversion,
+                   "predictions": len(rows), "splits": counts})
+        return
+    for c in counts:
+        click.echo(f"{c['split']}: {c['examples']} examples, {c['unsolvable']} unsolvable (predicted 0), "
+                   f"{c['missing_detections']} with a missing detection among the used observations")
+    how = ", ODMD's conversion" if odmd_conversion else ""
+    click.echo(f"wrote {output}: {len(rows)} predictions (Box_LS, n = {n_obs}{how})")
 
 @click.command()
 @click.option("--family", type=click.Choice(FAMILIES), default="test", show_default=True,
