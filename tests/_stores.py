@@ -31,7 +31,8 @@ def square(area: int) -> np.ndarray:
 
 
 def make_store(path, split: str, examples: list[dict], domain: str = "normal") -> str:
-    """Write a store; each example is {'z': [...], 'areas': [...], 'd1': float, 'id': optional}."""
+    """Write a store; each example is {'z': [...], 'areas': [...], 'd1': float, 'id': optional},
+    or gives its (n, SIZE, SIZE) masks as 'masks' in place of 'areas'."""
     masks, z, frame_index, d1, ids = [], [], [], [], []
     width = max(len(e["z"]) for e in examples)
     for i, e in enumerate(examples):
@@ -39,7 +40,7 @@ def make_store(path, split: str, examples: list[dict], domain: str = "normal") -
         row[: len(e["z"])] = np.arange(len(z), len(z) + len(e["z"]))
         frame_index.append(row)
         z += list(e["z"])
-        masks += [square(a) for a in e["areas"]]
+        masks += list(e["masks"]) if "masks" in e else [square(a) for a in e["areas"]]
         d1.append(e["d1"])
         ids.append(f"{split}/{e.get('id', f'{i:03d}')}")
     masks, z = np.stack(masks), np.array(z, np.float64)

@@ -1,4 +1,4 @@
-"""`odms-data score`, `odms-data baseline vosde` and `odms-data leaderboard`."""
+"""`odms-data score`, `odms-data baseline vosde | box-ls` and `odms-data leaderboard`."""
 
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ from pathlib import Path
 import click
 
 from ..errors import InputError
+from ..evaluation.box_ls import DEFAULT_N_OBS as BOX_LS_N_OBS
 from ..evaluation.ground_truth import (
     DEFAULT_DATA,
     ENV_VAR,
@@ -115,22 +116,67 @@ def vosde(stores, data, n_obs, output, overwrite, as_json):
       odms-data baseline vosde robot-test driving-test --n-obs 5 -o vosde5.csv
       odms-data baseline vosde sim-val.zarr -o sim.csv && odms-data score sim.csv --data sim-val.zarr
     """
-    from ..evaluation.evaluate import Evaluation
+    from ..evaluation.evaluate import Evaluation, vosde_baseline
 
     check_replaceable(output, overwrite, option="-o", suffixes=(".csv",))
     evaluation = Evaluation(data)
     paths = evaluation.stores(stores)
     with progress(len(paths), "VOS-DE (stores)") as update:
-        n_rows, counts = evaluation.baseline(paths, output, n_obs=n_obs, overwrite=overwrite, progress=update)
+        n_rows, counts = evaluation.baseline(paths, output, vosde_baseline(n_obs), overwrite=overwrite,
+                                             progress=update)
     if as_json:
         echo_json({"output": output, "n_obs": n_obs, "predictions": n_rows,
                    "splits": [c.to_json() for c in counts]})
         return
     for c in counts:
         echo_text(f"{c.split}: {c.examples} examples, {c.unsolvable} unsolvable (predicted 0), "
-                   f"{c.empty_masks} with an empty mask among the used observations")
+                   f"{c.flagged} with an empty mask among the used observations")
     click.echo(f"wrote {output}: {n_rows} predictions (VOS-DE, n = {n_obs})")
 
+
+
+@baseline.command("box-ls")
+@click.argument("stores", nargs=-1)
+@click.option("--data", multiple=True, type=click.Path(), help=DATA_HELP)
+@click.option("--n-obs", type=click.IntRange(min=2), default=BOX_LS_N_OBS, show_default=True,
+              help="Observations used per example (evenly spaced when an example has more).")
+@click.option("--odmd-conversion", is_flag=True,
+              help="Read the masks as ODMD's converted ODMS sets do (far-to-near order, robot windows "
+                   "from the far end, ODMD's camera-movement pairing); see docs/ODMD.md.")
+@click.option("-o", "--output", type=click.Path(), required=True, help="Predictions CSV to write.")
+@click.option("--overwrite", is_flag=True, help="Replace an existing predictions file.")
+@click.option("--json", "as_json", is_flag=True, help="Print the per-store counts as JSON.")
+def box_ls(stores, data, n_obs, odmd_conversion, output, overwrite, as_json):
+    """Box_LS (CVPR 2021), ODMD's least-squares baseline, from the boxes of the stored masks.
+
+    Each frame's box is ODMD's: the largest 8-connected region of its mask. STORES are split
+    names (looked up in the data folders) or store paths; none means every store in the data
+    folders. A zero-width box is a missing detection and takes the nearest observation's box; an
+    example with no solvable system predicts 0, as the authors' code does; the counts are printed.
+
+    \b
+    Examples:
+      odms-data baseline box-ls --data ./odms-stores -o box_ls.csv
+      odms-data baseline box-ls robot-test --odmd-conversion -o box_ls_odmd.csv
+      odms-data baseline box-ls sim-val.zarr -o sim.csv && odms-data score sim.csv --data sim-val.zarr
+    """
+    from ..evaluation.evaluate import Evaluation, box_ls_baseline
+
+    check_replaceable(output, overwrite, option="-o", suffixes=(".csv",))
+    evaluation = Evaluation(data)
+    paths = evaluation.stores(stores)
+    with progress(len(paths), "Box_LS (stores)") as update:
+        n_rows, counts = evaluation.baseline(paths, output, box_ls_baseline(n_obs, odmd_conversion),
+                                             overwrite=overwrite, progress=update)
+    if as_json:
+        echo_json({"output": output, "n_obs": n_obs, "odmd_conversion": odmd_conversion,
+                   "predictions": n_rows, "splits": [c.to_json() for c in counts]})
+        return
+    for c in counts:
+        echo_text(f"{c.split}: {c.examples} examples, {c.unsolvable} unsolvable (predicted 0), "
+                  f"{c.flagged} with a missing detection among the used observations")
+    how = ", ODMD's conversion" if odmd_conversion else ""
+    click.echo(f"wrote {output}: {n_rows} predictions (Box_LS, n = {n_obs}{how})")
 
 @click.command()
 @click.option("--family", type=click.Choice(FAMILIES), default="test", show_default=True,

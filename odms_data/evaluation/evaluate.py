@@ -10,9 +10,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ..errors import InputError
 from ..protocol import split_order
-from ..store.reader import open_store
+from ..store.reader import Store, open_store
+from .box_ls import box_ls
 from .ground_truth import SplitTruth, data_locations, find_stores, load_truth, stores_by_split, verify_truth
 from .predictions import Predictions, read_predictions, write_predictions
 from .scoring import ScoreReport, score
@@ -20,27 +23,47 @@ from .vosde import vosde
 
 
 @dataclass(frozen=True)
+class Baseline:
+    """A baseline method as Evaluation runs it: how it runs over one open store (a result with
+    `split`, `d1`, `unsolvable` and `rows()`), and the examples it counts besides the unsolvable
+    ones: their name in the counts (`flag`) and where its result marks them (`flagged`)."""
+
+    name: str
+    run: Callable[[Store], Any]
+    flag: str
+    flagged: Callable[[Any], np.ndarray]
+
+
+def vosde_baseline(n_obs: int) -> Baseline:
+    """VOS-DE: it also counts the examples with an empty mask among the used observations."""
+    return Baseline("VOS-DE", lambda s: vosde(s, n_obs), "empty_masks", lambda r: r.empty_masks)
+
+
+def box_ls_baseline(n_obs: int, odmd_conversion: bool) -> Baseline:
+    """Box_LS: it also counts the examples with a missing detection among the used observations."""
+    return Baseline("Box_LS", lambda s: box_ls(s, n_obs, odmd_conversion), "missing_detections",
+                    lambda r: r.missing)
+
+
+@dataclass(frozen=True)
 class BaselineCounts:
-    """One store's VOS-DE run: its examples, those unsolvable (predicted 0) and those with an empty
-    mask among the used observations."""
+    """One store's baseline run: its examples, those unsolvable (predicted 0) and those the method
+    flags (`flag`: empty masks for VOS-DE, missing detections for Box_LS)."""
 
     split: str
     examples: int
     unsolvable: int
-    empty_masks: int
+    flag: str
+    flagged: int
 
     def __post_init__(self) -> None:
-        if not 0 <= max(self.unsolvable, self.empty_masks) <= self.examples:
+        if not 0 <= max(self.unsolvable, self.flagged) <= self.examples:
             raise InputError(f"split {self.split}: counts must lie between 0 and its {self.examples} "
                              "examples")
 
     def to_json(self) -> dict[str, Any]:
         return {"split": self.split, "examples": self.examples, "unsolvable": self.unsolvable,
-                "empty_masks": self.empty_masks}
-
-    @classmethod
-    def from_json(cls, d: dict[str, Any]) -> BaselineCounts:
-        return cls(d["split"], d["examples"], d["unsolvable"], d["empty_masks"])
+                self.flag: self.flagged}
 
 
 @dataclass(frozen=True)
@@ -89,19 +112,19 @@ class Evaluation:
         return preds, report
 
     def baseline(
-        self, stores: Sequence[Path], output: str | Path, *, n_obs: int, overwrite: bool = False,
+        self, stores: Sequence[Path], output: str | Path, method: Baseline, *, overwrite: bool = False,
         progress: Callable[[int], None] = lambda n: None,
     ) -> tuple[int, list[BaselineCounts]]:
-        """Write VOS-DE's predictions file for `stores` (as `stores()` gives them); the number of
+        """Write `method`'s predictions file for `stores` (as `stores()` gives them); the number of
         predictions and each store's counts. `progress(1)` after each store."""
         rows, counts = [], []
         for p in stores:
             with open_store(str(p)) as s:
-                r = vosde(s, n_obs)
+                r = method.run(s)
             progress(1)
             rows += r.rows()
-            counts.append(BaselineCounts(r.split, len(r.d1), int(r.unsolvable.sum()),
-                                         int(r.empty_masks.sum())))
+            counts.append(BaselineCounts(r.split, len(r.d1), int(r.unsolvable.sum()), method.flag,
+                                         int(method.flagged(r).sum())))
         write_predictions(output, rows, overwrite=overwrite)
         return len(rows), counts
 
@@ -112,9 +135,9 @@ def _verify(truth: SplitTruth, progress: Callable[[str, int, int], None] | None)
         total = s.n_frames
     done = 0
 
-    def visit(start: int, block: object) -> None:
+    def visit(start: int, block: np.ndarray) -> None:
         nonlocal done
-        done += len(block)  # type: ignore[arg-type]
+        done += len(block)
         if progress:
             progress(truth.split, done, total)
 

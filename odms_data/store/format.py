@@ -15,7 +15,6 @@ import numpy as np
 from .._version import __version__
 from ..errors import StoreError
 from ..resources import resource_dir
-from .declared import storage_problems
 from .masks import packed_width
 from .oddity import Oddity
 
@@ -166,7 +165,7 @@ def layout_problems(backend: Any, raw: dict[str, Any]) -> list[str]:
             problems.append(f"array '{a.name}' has shape {shape}, expected ({text})")
         if np.dtype(arr.dtype) != np.dtype(a.dtype):
             problems.append(f"array '{a.name}' has dtype {arr.dtype}, expected {np.dtype(a.dtype)}")
-    return problems or storage_problems(backend, list(ARRAYS))
+    return problems
 
 
 def encode_strings(values: list[str]) -> np.ndarray:

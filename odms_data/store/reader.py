@@ -12,6 +12,7 @@ import numpy as np
 
 from ..errors import InputError, StoreError
 from .backends import Backend, open_backend
+from .declared import store_problems
 from .format import (
     ARRAYS,
     StoreAttrs,
@@ -20,7 +21,6 @@ from .format import (
     depth_problems,
     frame_index_problems,
     id_problems,
-    layout_problems,
     stats_problems,
     z_problems,
 )
@@ -278,7 +278,7 @@ def open_store(path: str) -> Store:
         if missing:
             raise StoreError(f"{path}: store lacks the array(s) {', '.join(missing)}")
         attrs = StoreAttrs.from_json(raw, str(path))
-        problems = layout_problems(backend, raw)
+        problems = store_problems(backend, raw)
         if problems:
             raise StoreError(f"{path}: {problems[0]}; run `odms-data validate` on it")
         return Store(backend, str(path), attrs)

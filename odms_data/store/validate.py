@@ -9,6 +9,7 @@ import numpy as np
 
 from ..errors import InputError, OdmsError, StoreError
 from .backends import open_backend
+from .declared import store_problems
 from .digest import recompute_digest
 from .format import (
     ARRAYS,
@@ -19,7 +20,6 @@ from .format import (
     depth_problems,
     frame_index_problems,
     id_problems,
-    layout_problems,
     stats_problems,
     z_problems,
 )
@@ -64,7 +64,7 @@ def validate(path: str, progress: Callable[[int], None] | None = None) -> Report
             report.problems.append(f"missing array(s): {', '.join(missing)}")
         if report.problems:
             return report
-        report.problems += layout_problems(backend, raw)
+        report.problems += store_problems(backend, raw)
     except OdmsError as e:
         report.problems.append(str(e))
     finally:

@@ -164,14 +164,18 @@ def test_entry_needs_a_name_and_a_complete_score(tmp_path, official_like):
 
 def test_shipped_entries_are_valid_and_match_the_published_all():
     entries = {e.name: e for e in load_entries()}
-    assert len(entries) == 25
+    assert len(entries) == 26
     assert family_all(entries["DBox"], "test") == 17.1
-    assert family_all(entries["Box_LS"], "test") == 25.3
+    assert family_all(entries["Box_LS (paper)"], "test") == 25.3
     assert family_all(entries["ODN_l"], "test") == pytest.approx((19.3 + 30.1 + 8.3 + 18.2) / 4)
     assert entries["VOS-DE (paper)"].results["test"]["driving"]["percent"] == 36.0
     computed = entries["VOS-DE"]
     assert computed.figures == "computed" and computed.n_obs == 10
     assert round(computed.results["test"]["driving"]["percent"], 2) == 35.76
+    box_ls = entries["Box_LS"]  # --odmd-conversion: the published driving, normal and perturb figures
+    assert box_ls.figures == "computed" and box_ls.n_obs == 10
+    assert [round(box_ls.results["test"][d]["percent"], 1) for d in ("driving", "normal", "perturb")] == [
+        33.3, 13.7, 36.6]
 
 
 def test_leaderboard_is_sorted_by_all_and_its_page_shows_it():
