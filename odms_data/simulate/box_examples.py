@@ -87,79 +87,69 @@ BOX_PRESETS = {
 }
 
 
-@dataclass
-class _Draws:
-    """One example's geometry draws: 8 uniforms, 3 signs, the swap, the intermediate uniforms and
-    the box noise."""
-
-    u: np.ndarray
-    sign: np.ndarray
-    swap: bool
-    mid: np.ndarray
-    noise: np.ndarray | None
+def _n_uniforms(p: BoxParams) -> int:
+    """Uniforms an example draws: 8 for start, move and size, 3 signs, the swap, the shuffle
+    and 3 per intermediate position."""
+    return 13 + 3 * (p.num_pos - 2)
 
 
-def _draw(p: BoxParams, rng: np.random.Generator) -> _Draws:
-    u = rng.random(8)
-    sign = rng.integers(0, 2, 3) * 2 - 1
-    swap = bool(rng.integers(0, 2)) if p.end_swap else False
-    mid = rng.random((p.num_pos - 2, 3))
-    noise = rng.normal(0, p.std_dev, (p.num_pos, 4)) if p.perturb and p.std_dev > 0 else None
-    return _Draws(u, sign, swap, mid, noise)
-
-
-def _positions(p: BoxParams, d: _Draws) -> np.ndarray:
-    """(num_pos, 3) object positions x, y, z in camera coordinates, m."""
-    u = d.u
-    z0 = p.z_lim[0] + (p.z_lim[1] - p.z_lim[0]) * u[0]
+def _positions(p: BoxParams, u: np.ndarray) -> np.ndarray:
+    """(B, num_pos, 3) object positions x, y, z in camera coordinates, m, from uniforms u (B, k)."""
+    z0 = p.z_lim[0] + (p.z_lim[1] - p.z_lim[0]) * u[:, 0]
     (xlo, xhi), (ylo, yhi) = p.x_range(z0), p.y_range(z0)
-    start = np.array([xlo + u[1] * (xhi - xlo), ylo + u[2] * (yhi - ylo), z0])
+    start = np.stack([xlo + u[:, 1] * (xhi - xlo), ylo + u[:, 2] * (yhi - ylo), z0], axis=1)
     lo, hi = np.array(p.move_min), np.array(p.move_max)
-    end = start + d.sign * (lo + (hi - lo) * u[3:6])
-    if d.swap:
-        start, end = end, start
-    out = np.empty((p.num_pos, 3))
-    out[0], out[-1] = start, end
-    out[1:-1] = start + (end - start) * np.sort(d.mid, axis=0)  # monotone from start to end
+    sign = np.where(u[:, 8:11] < 0.5, -1.0, 1.0)
+    end = start + sign * (lo + (hi - lo) * u[:, 3:6])
+    if p.end_swap:
+        swap = u[:, 11] < 0.5
+        start[swap], end[swap] = end[swap], start[swap].copy()
+    out = np.empty((len(u), p.num_pos, 3))
+    out[:, 0], out[:, -1] = start, end
+    along = np.sort(u[:, 13:].reshape(len(u), p.num_pos - 2, 3), axis=1)  # monotone from start to end
+    out[:, 1:-1] = start[:, None] + (end - start)[:, None] * along
     return out
 
 
-def _boxes(p: BoxParams, pos: np.ndarray, size: np.ndarray) -> np.ndarray:
+def _boxes(p: BoxParams, u: np.ndarray, noise: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """(B, num_pos, 4) boxes, with the box noise when given, and the positions they project."""
+    pos = _positions(p, u)
+    size = p.size_lim[0] + (p.size_lim[1] - p.size_lim[0]) * u[:, 6:8]
     h, w = p.image_dim
-    z = pos[:, 2]
-    return np.stack([pos[:, 0] * (p.fx / w) / z + p.cx / w, pos[:, 1] * (p.fy / h) / z + p.cy / h,
-                     size[0] * (p.fx / w) / z, size[1] * (p.fy / h) / z], axis=1)
-
-
-def _example(p: BoxParams, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, float]:
-    d = _draw(p, rng)
-    pos = _positions(p, d)
-    size = p.size_lim[0] + (p.size_lim[1] - p.size_lim[0]) * d.u[6:8]
-    boxes = _boxes(p, pos, size)
-    if d.noise is not None:
-        boxes += d.noise
-    if p.perturb and p.shuffle > 0 and rng.random() < p.shuffle:
-        frame = int(rng.integers(p.num_pos))
-        donor = _draw(p, rng)
-        donor_size = p.size_lim[0] + (p.size_lim[1] - p.size_lim[0]) * donor.u[6:8]
-        donor_boxes = _boxes(p, _positions(p, donor), donor_size)
-        if donor.noise is not None:
-            donor_boxes += donor.noise
-        boxes[frame] = donor_boxes[frame]
-    move = pos[-1] - pos
-    if p.perturb and p.cam_dev > 0:
-        move[:-1] += rng.normal(0, p.cam_dev, (p.num_pos - 1, 3))
-    return boxes, move, float(pos[-1, 2])
+    z = pos[:, :, 2]
+    boxes = np.stack([pos[:, :, 0] * (p.fx / w) / z + p.cx / w, pos[:, :, 1] * (p.fy / h) / z + p.cy / h,
+                      size[:, :1] * (p.fx / w) / z, size[:, 1:] * (p.fy / h) / z], axis=2)
+    if noise is not None:
+        boxes += p.std_dev * noise.reshape(len(u), p.num_pos, 4)
+    return boxes, pos
 
 
 def sample_box_examples(p: BoxParams, seed: int, indices: Sequence[int] | np.ndarray
                         ) -> dict[str, np.ndarray]:
     """The examples at generator `indices` of (p, seed): `boxes` (B, n, 4), `move` (B, n, 3),
-    `depth` (B,), float64; each depends only on (p, seed, its index)."""
+    `depth` (B,), float64; each depends only on (p, seed, its index). Each example's generator
+    gives, in order: its uniforms, its normals (with `perturb`: box noise then camera noise), and
+    when shuffled the frame and the donor's uniforms and box noise."""
     rngs = example_rngs(seed, [int(i) for i in indices])
-    boxes = np.empty((len(rngs), p.num_pos, 4))
-    move = np.empty((len(rngs), p.num_pos, 3))
-    depth = np.empty(len(rngs))
-    for k, rng in enumerate(rngs):
-        boxes[k], move[k], depth[k] = _example(p, rng)
-    return {"boxes": boxes, "move": move, "depth": depth}
+    n, k = p.num_pos, _n_uniforms(p)
+    box_noise = p.perturb and p.std_dev > 0
+    cam_noise = p.perturb and p.cam_dev > 0
+    n_normal = 4 * n * box_noise + 3 * (n - 1) * cam_noise
+    u = np.empty((len(rngs), k))
+    normal = np.empty((len(rngs), n_normal))
+    donors: list[tuple[int, int, np.ndarray, np.ndarray]] = []  # example, frame, uniforms, box noise
+    for i, rng in enumerate(rngs):
+        u[i] = rng.random(k)
+        normal[i] = rng.standard_normal(n_normal)
+        if p.perturb and p.shuffle > 0 and u[i, 12] < p.shuffle:
+            donors.append((i, int(rng.integers(n)), rng.random(k), rng.standard_normal(4 * n * box_noise)))
+    boxes, pos = _boxes(p, u, normal[:, :4 * n] if box_noise else None)
+    if donors:
+        given, _ = _boxes(p, np.array([d[2] for d in donors]),
+                          np.array([d[3] for d in donors]) if box_noise else None)
+        for (i, frame, _, _), b in zip(donors, given, strict=True):
+            boxes[i, frame] = b[frame]
+    move = pos[:, -1:] - pos
+    if cam_noise:
+        move[:, :-1] += p.cam_dev * normal[:, n_normal - 3 * (n - 1):].reshape(len(rngs), n - 1, 3)
+    return {"boxes": boxes, "move": move, "depth": pos[:, -1, 2].copy()}
