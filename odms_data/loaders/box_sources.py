@@ -30,11 +30,11 @@ class GeneratedBoxExamples:
               empty: Callable[[tuple[int, ...], np.dtype], np.ndarray] = np.empty) -> dict[str, np.ndarray]:
         """The examples at generator `indices`, in arrays made by `empty` (as sources.collate)."""
         g = sample_box_examples(self.params, self.seed, indices)
-        made = [self.transform(b, m, d) for b, m, d in zip(g["boxes"], g["move"], g["depth"], strict=True)]
+        made = self.transform.batch(g["boxes"], g["move"], g["depth"])
         out = {}
-        for key, first in made[0].items():
-            out[key] = empty((len(made), *first.shape), first.dtype)
-            np.stack([e[key] for e in made], out=out[key])
-        index = empty((len(made),), np.dtype(np.int64))
+        for key, a in made.items():
+            out[key] = empty(a.shape, a.dtype)
+            out[key][...] = a
+        index = empty((len(a),), np.dtype(np.int64))
         index[...] = indices
         return {**out, "index": index}

@@ -61,27 +61,36 @@ class BoxTransform:
         return evenly_spaced(0, n - 1, self.n_obs)
 
     def __call__(self, boxes: np.ndarray, move: np.ndarray, depth: float) -> dict[str, np.ndarray]:
-        boxes, move = np.asarray(boxes), np.asarray(move)
-        n = len(boxes)
-        if boxes.shape != (n, 4) or move.shape != (n, 3):
-            raise InputError(f"a box example needs boxes (n, 4) and move (n, 3), "
-                             f"got {boxes.shape} and {move.shape}")
-        x = np.zeros((self.n_obs, FEATURES), np.float32)
-        x[:, :4] = fill_missed(boxes, self.select(n))
-        x[:-1, 4:] = move[evenly_spaced(0, n - 2, self.n_obs - 1)]
-        label = np.float32(depth)
-        norm = np.float32(1)
+        """One example's inputs: boxes (n, 4), move (n, 3), depth."""
+        return {k: v[0] for k, v in self.batch(np.asarray(boxes)[None], np.asarray(move)[None],
+                                               np.asarray(depth)[None]).items()}
+
+    def batch(self, boxes: np.ndarray, move: np.ndarray, depth: np.ndarray) -> dict[str, np.ndarray]:
+        """The inputs of B examples of n frames: boxes (B, n, 4), move (B, n, 3), depth (B,); each
+        example's the same as alone (the operations are element-wise or per example)."""
+        boxes, move, depth = np.asarray(boxes), np.asarray(move), np.asarray(depth)
+        b, n = boxes.shape[:2]
+        if boxes.shape != (b, n, 4) or move.shape != (b, n, 3) or depth.shape != (b,):
+            raise InputError(f"box examples need boxes (n, 4), move (n, 3) and a depth each, "
+                             f"got {boxes.shape[1:]}, {move.shape[1:]} and {depth.shape[1:]}")
+        chosen = self.select(n)
+        x = np.zeros((b, self.n_obs, FEATURES), np.float32)
+        x[:, :, :4] = boxes[:, chosen]
+        for k in np.flatnonzero((boxes[:, chosen, 2] == 0).any(axis=1)):
+            x[k, :, :4] = fill_missed(boxes[k], chosen)
+        x[:, :-1, 4:] = move[:, evenly_spaced(0, n - 2, self.n_obs - 1)]
+        label = depth.astype(np.float32)
+        norm = np.ones(b, np.float32)
         if self.normalized:
-            norm = np.linalg.norm(x[:1, 4:], axis=1)[0]  # as the authors reduce, per row
-            if not norm > 0:
+            norm = np.linalg.norm(x[:, 0, 4:], axis=1)  # as the authors reduce, per row
+            if not np.all(norm > 0):
                 raise InputError("a box example whose first observation has no camera movement "
                                  "cannot be normalized")
-            x[:, 4:] *= 1 / norm
-            label = np.float32(label / norm)
-        x[1:, 4:] = np.diff(x[:, 4:], axis=0)
-        x[0, 4:] = 0
-        return {"inputs": x, "depth_norm": np.asarray(label, np.float32),
-                "norm": np.asarray(norm, np.float32), "depth": np.asarray(depth, np.float32)}
+            x[:, :, 4:] *= (1 / norm)[:, None, None]
+            label = label / norm
+        x[:, 1:, 4:] = np.diff(x[:, :, 4:], axis=1)
+        x[:, 0, 4:] = 0
+        return {"inputs": x, "depth_norm": label, "norm": norm, "depth": depth.astype(np.float32)}
 
 
 DBOX_TRANSFORM = BoxTransform()

@@ -62,3 +62,15 @@ def test_bad_examples_refused():
         BoxTransform()(boxes[:, :3], move, depth)
     with pytest.raises(InputError, match="no camera movement"):
         BoxTransform()(boxes, np.zeros_like(move), depth)
+
+
+def test_a_batch_is_its_examples_alone():
+    examples = [_example(seed=s) for s in range(6)]
+    boxes = np.stack([e[0] for e in examples])
+    move = np.stack([e[1] for e in examples])
+    boxes[2, [0, 5], 2] = 0  # missed detections in one example
+    out = BoxTransform().batch(boxes, move, np.array([e[2] for e in examples]))
+    for k, (_, _, depth) in enumerate(examples):
+        alone = BoxTransform()(boxes[k], move[k], depth)
+        assert all(np.array_equal(out[key][k], alone[key]) for key in alone)
+    np.testing.assert_array_equal(out["inputs"][2, 0, :4], boxes[2, 1].astype(np.float32))
