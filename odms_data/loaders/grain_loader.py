@@ -30,9 +30,12 @@ import numpy as np
 
 from ..errors import InputError
 from ..extras import missing
+from ..simulate.box_examples import BoxParams
 from ..simulate.params import GeneratorParams
+from .box_sources import GeneratedBoxExamples
+from .box_transform import BoxTransform
 from .reused_arrays import ReusedArrays
-from .sources import STANDARD, GeneratedExamples, StoreExamples, stream_indices
+from .sources import STANDARD, GeneratedExamples, StoreExamples, generated_examples, stream_indices
 from .transforms import PAPER_TRANSFORM, Transform
 
 try:
@@ -67,7 +70,7 @@ class StoreSource:
 class _StreamBatch:
     """Element k of the stream: the batch of generator indices k * batch_size + [0, batch_size)."""
 
-    def __init__(self, examples: GeneratedExamples, batch_size: int) -> None:
+    def __init__(self, examples: GeneratedExamples | GeneratedBoxExamples, batch_size: int) -> None:
         self.examples, self.batch_size = examples, batch_size
         self.arrays = ReusedArrays()  # batches nothing holds any more are drawn into again
 
@@ -80,9 +83,9 @@ def stream_dataset(
     batches_per_epoch: int,
     *,
     epochs: int = 1,
-    params: GeneratorParams = STANDARD,
+    params: GeneratorParams | BoxParams = STANDARD,
     seed: int = 0,
-    transform: Transform = PAPER_TRANSFORM,
+    transform: Transform | BoxTransform = PAPER_TRANSFORM,
     direct: bool = False,
 ) -> grain.MapDataset:
     """`epochs * batches_per_epoch` batches of freshly generated examples, no example twice.
@@ -90,5 +93,5 @@ def stream_dataset(
     if batch_size < 1 or batches_per_epoch < 1 or epochs < 1:
         raise InputError(f"need batch_size, batches_per_epoch and epochs >= 1, got {batch_size}, "
                          f"{batches_per_epoch}, {epochs}")
-    examples = GeneratedExamples(params, seed, transform, direct)
+    examples = generated_examples(params, seed, transform, direct)
     return grain.MapDataset.range(epochs * batches_per_epoch).map(_StreamBatch(examples, batch_size))

@@ -21,16 +21,27 @@ import numpy as np
 
 from ..errors import InputError
 from ..parallel import ordered_map, worker_pool
+from ..simulate.box_examples import BoxParams
 from ..simulate.params import GeneratorParams
+from .box_sources import GeneratedBoxExamples
+from .box_transform import BoxTransform
 from .reused_arrays import ReusedArrays
 from .shared_batches import Arena, BlockPool
-from .sources import STANDARD, GeneratedExamples, Indices, StoreExamples, store_order, stream_indices
+from .sources import (
+    STANDARD,
+    GeneratedExamples,
+    Indices,
+    StoreExamples,
+    generated_examples,
+    store_order,
+    stream_indices,
+)
 from .transforms import PAPER_TRANSFORM, Transform
 
-_source: StoreExamples | GeneratedExamples  # a worker's source, set once by _set_source
+_source: StoreExamples | GeneratedExamples | GeneratedBoxExamples  # a worker's source (set by _set_source)
 
 
-def _set_source(source: StoreExamples | GeneratedExamples) -> None:
+def _set_source(source: StoreExamples | GeneratedExamples | GeneratedBoxExamples) -> None:
     """Worker initialiser: the source travels once, so a store is opened once per worker."""
     global _source
     _source = source
@@ -47,7 +58,7 @@ class Batches:
     example indices are `plan`; iterate it again to get the same batches again."""
 
     def __init__(
-        self, source: StoreExamples | GeneratedExamples, plan: Sequence[Indices],
+        self, source: StoreExamples | GeneratedExamples | GeneratedBoxExamples, plan: Sequence[Indices],
         workers: int = 0,
     ) -> None:
         if workers < 0:
@@ -119,10 +130,10 @@ def stream_batches(
     batch_size: int,
     batches: int,
     *,
-    params: GeneratorParams = STANDARD,
+    params: GeneratorParams | BoxParams = STANDARD,
     seed: int = 0,
     epoch: int = 0,
-    transform: Transform = PAPER_TRANSFORM,
+    transform: Transform | BoxTransform = PAPER_TRANSFORM,
     direct: bool = False,
     workers: int = 0,
 ) -> Batches:
@@ -131,5 +142,5 @@ def stream_batches(
     _check_batch_size(batch_size)
     if batches < 1 or epoch < 0:
         raise InputError(f"need batches >= 1 and epoch >= 0, got batches={batches}, epoch={epoch}")
-    source = GeneratedExamples(params, seed, transform, direct)
+    source = generated_examples(params, seed, transform, direct)
     return Batches(source, [stream_indices(b, batch_size, batches, epoch) for b in range(batches)], workers)

@@ -15,11 +15,14 @@ import numpy as np
 
 from ..errors import InputError
 from ..simulate.batch_render import render_masks, render_shrunk
+from ..simulate.box_examples import BoxParams
 from ..simulate.object_model import sample_examples
 from ..simulate.params import PRESETS, GeneratorParams
 from ..simulate.shrink import shrink_packed
 from ..store.masks import unpack
 from ..store.reader import Store, open_store
+from .box_sources import GeneratedBoxExamples
+from .box_transform import DBOX_TRANSFORM, BoxTransform
 from .transforms import PAPER_TRANSFORM, Transform
 
 STANDARD = PRESETS["standard"]
@@ -173,6 +176,22 @@ class GeneratedExamples:
         index = empty((len(specs),), np.dtype(np.int64))
         index[...] = indices
         return {"masks": masks, **vectors, "index": index}
+
+
+def generated_examples(
+    params: GeneratorParams | BoxParams, seed: int, transform: Transform | BoxTransform, direct: bool = False
+) -> GeneratedExamples | GeneratedBoxExamples:
+    """The stream's source for the kind of example `params` makes: masks (GeneratorParams, with a
+    Transform) or boxes (BoxParams, with a BoxTransform; the loaders' default Transform stands for
+    DBox's)."""
+    if isinstance(params, BoxParams):
+        transform = DBOX_TRANSFORM if transform == PAPER_TRANSFORM else transform
+        if not isinstance(transform, BoxTransform) or direct:
+            raise InputError("box examples take a BoxTransform (DBox's inputs) and no direct drawing")
+        return GeneratedBoxExamples(params, seed, transform)
+    if isinstance(transform, BoxTransform):
+        raise InputError("mask examples take a Transform; a BoxTransform needs box generator parameters")
+    return GeneratedExamples(params, seed, transform, direct)
 
 
 def stream_indices(batch: int, batch_size: int, batches_per_epoch: int, epoch: int) -> range:

@@ -23,9 +23,11 @@ import numpy as np
 
 from ..errors import InputError
 from ..extras import missing
+from ..simulate.box_examples import BoxParams
 from ..simulate.params import GeneratorParams
+from .box_transform import BoxTransform
 from .shared_batches import BlockLayout, received_arrays, worker_blocks
-from .sources import STANDARD, GeneratedExamples, StoreExamples, stream_indices
+from .sources import STANDARD, StoreExamples, generated_examples, stream_indices
 from .transforms import PAPER_TRANSFORM, Transform
 
 try:
@@ -69,9 +71,9 @@ class StreamDataset(IterableDataset):
         batch_size: int,
         batches_per_epoch: int,
         *,
-        params: GeneratorParams = STANDARD,
+        params: GeneratorParams | BoxParams = STANDARD,
         seed: int = 0,
-        transform: Transform = PAPER_TRANSFORM,
+        transform: Transform | BoxTransform = PAPER_TRANSFORM,
         direct: bool = False,
         start: int = 0,
     ) -> None:
@@ -81,7 +83,7 @@ class StreamDataset(IterableDataset):
             )
         if not 0 <= start < batches_per_epoch:
             raise InputError(f"start must be a batch of the epoch, 0..{batches_per_epoch - 1}; got {start}")
-        self.examples = GeneratedExamples(params, seed, transform, direct)
+        self.examples = generated_examples(params, seed, transform, direct)
         self.batch_size, self.batches_per_epoch, self.start = batch_size, batches_per_epoch, start
         # In shared memory, so that set_epoch reaches workers started earlier (persistent_workers=True):
         # DataLoader hands a worker the dataset once, and pickles this tensor as a handle, not a copy.

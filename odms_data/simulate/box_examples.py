@@ -1,0 +1,155 @@
+"""Box examples as ODMD's released generator makes them (griffbr/ODMD, odmd/data_gen), each drawn
+from its own generator seeded by (seed, index) (seeding.py), so an example depends on nothing else.
+
+An object of width and height U(size_lim) m starts at depth U(z_lim) and at an x, y inside the
+field of view with room for the largest move; it moves by +-U(move_min, move_max) m per axis, the
+start and end swapped with probability 1/2 (`end_swap`); the num_pos - 2 positions between are
+uniform draws along the way, sorted so each axis moves monotonically. Each position's box is the
+pinhole projection [xc, yc, w, h], normalised by the image width (x, w) and height (y, h).
+
+With `perturb`: N(0, std_dev) on every box coordinate; a fraction `shuffle` of examples has one
+frame's box replaced by another example's box of the same frame; N(0, cam_dev) m on every camera
+movement. ODMD shuffles within a batch (exactly int(shuffle * batch) examples, the donor another
+example of the batch). Here each example is shuffled with probability `shuffle` and its donor is
+a further example drawn from its own generator, so an example never depends on its batch.
+
+Per example: `boxes` (n, 4), `move` (n, 3) the object's displacement from each frame to the last
+(ODMD's camera movement; the last row 0), `depth` the object's depth at the last frame, float64.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+from .seeding import example_rngs
+
+
+@dataclass(frozen=True)
+class BoxParams:
+    """A generator configuration (ODMD's config/data_gen) and its camera (config/camera)."""
+
+    z_lim: tuple[float, float] = (0.55, 1.0)
+    move_min: tuple[float, float, float] = (0.0, 0.0, 0.05)
+    move_max: tuple[float, float, float] = (0.25, 0.175, 0.325)
+    size_lim: tuple[float, float] = (0.01, 0.175)
+    num_pos: int = 10
+    end_swap: bool = True
+    perturb: bool = True
+    std_dev: float = 0.001
+    cam_dev: float = 0.01
+    shuffle: float = 0.1
+    image_dim: tuple[int, int] = (480, 640)  # height, width
+    fx: float = 205.5
+    fy: float = 205.5
+    cx: float = 320.5
+    cy: float = 240.5
+
+    def __post_init__(self) -> None:
+        if self.num_pos < 2:
+            raise InputError(f"num_pos must be at least 2, got {self.num_pos}")
+        if not 0 <= self.shuffle <= 1 or self.std_dev < 0 or self.cam_dev < 0:
+            raise InputError("shuffle must lie in [0, 1] and std_dev, cam_dev be non-negative")
+        lo, hi = self.x_range(self.z_lim[0]), self.y_range(self.z_lim[0])
+        if lo[0] > 0 or hi[0] > 0:
+            raise InputError(f"the field of view at depth {self.z_lim[0]} m has no room for the moves; "
+                             "raise z_lim")
+
+    def _margins(self, axis: int, c: float, f: float, extent: float) -> tuple[float, float, float, float]:
+        """lo(z) = a_lo z + b_lo and hi(z) = a_hi z + b_hi: where an object at depth z may start so
+        that it stays in view after any move."""
+        pad = self.move_max[axis] + self.size_lim[1] / 2
+        a_lo, a_hi = -c / f, (extent - c) / f
+        return a_lo, pad + self.move_max[2] * c / f, a_hi, -pad - self.move_max[2] * a_hi
+
+    def x_range(self, z: float | np.ndarray) -> tuple[float | np.ndarray, float | np.ndarray]:
+        a_lo, b_lo, a_hi, b_hi = self._margins(0, self.cx, self.fx, self.image_dim[1])
+        return z * a_lo + b_lo, z * a_hi + b_hi
+
+    def y_range(self, z: float | np.ndarray) -> tuple[float | np.ndarray, float | np.ndarray]:
+        a_lo, b_lo, a_hi, b_hi = self._margins(1, self.cy, self.fy, self.image_dim[0])
+        return z * a_lo + b_lo, z * a_hi + b_hi
+
+
+BOX_PRESETS = {
+    # the released generator: config/data_gen/standard_data.yaml with the HSR grasp camera (its demo)
+    "odmd": BoxParams(),
+    # the same without perturbations, and with one kind each: what ODMD's Normal, Perturb Camera
+    # and Perturb Detect sets show (their boxes, movements and sizes)
+    "odmd-normal": BoxParams(perturb=False),
+    "odmd-perturb-motion": BoxParams(std_dev=0.0, shuffle=0.0),
+    "odmd-perturb-detection": BoxParams(cam_dev=0.0),
+    # config/data_gen/ODMS.yaml: motion along z only, with the ODMS camera
+    "odms": BoxParams(move_max=(0.0, 0.0, 0.4625), fx=240.5, fy=240.5),
+}
+
+
+def _n_uniforms(p: BoxParams) -> int:
+    """Uniforms an example draws: 8 for start, move and size, 3 signs, the swap, the shuffle
+    and 3 per intermediate position."""
+    return 13 + 3 * (p.num_pos - 2)
+
+
+def _positions(p: BoxParams, u: np.ndarray) -> np.ndarray:
+    """(B, num_pos, 3) object positions x, y, z in camera coordinates, m, from uniforms u (B, k)."""
+    z0 = p.z_lim[0] + (p.z_lim[1] - p.z_lim[0]) * u[:, 0]
+    (xlo, xhi), (ylo, yhi) = p.x_range(z0), p.y_range(z0)
+    start = np.stack([xlo + u[:, 1] * (xhi - xlo), ylo + u[:, 2] * (yhi - ylo), z0], axis=1)
+    lo, hi = np.array(p.move_min), np.array(p.move_max)
+    sign = np.where(u[:, 8:11] < 0.5, -1.0, 1.0)
+    end = start + sign * (lo + (hi - lo) * u[:, 3:6])
+    if p.end_swap:
+        swap = u[:, 11] < 0.5
+        start[swap], end[swap] = end[swap], start[swap].copy()
+    out = np.empty((len(u), p.num_pos, 3))
+    out[:, 0], out[:, -1] = start, end
+    along = np.sort(u[:, 13:].reshape(len(u), p.num_pos - 2, 3), axis=1)  # monotone from start to end
+    out[:, 1:-1] = start[:, None] + (end - start)[:, None] * along
+    return out
+
+
+def _boxes(p: BoxParams, u: np.ndarray, noise: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """(B, num_pos, 4) boxes, with the box noise when given, and the positions they project."""
+    pos = _positions(p, u)
+    size = p.size_lim[0] + (p.size_lim[1] - p.size_lim[0]) * u[:, 6:8]
+    h, w = p.image_dim
+    z = pos[:, :, 2]
+    boxes = np.stack([pos[:, :, 0] * (p.fx / w) / z + p.cx / w, pos[:, :, 1] * (p.fy / h) / z + p.cy / h,
+                      size[:, :1] * (p.fx / w) / z, size[:, 1:] * (p.fy / h) / z], axis=2)
+    if noise is not None:
+        boxes += p.std_dev * noise.reshape(len(u), p.num_pos, 4)
+    return boxes, pos
+
+
+def sample_box_examples(p: BoxParams, seed: int, indices: Sequence[int] | np.ndarray
+                        ) -> dict[str, np.ndarray]:
+    """The examples at generator `indices` of (p, seed): `boxes` (B, n, 4), `move` (B, n, 3),
+    `depth` (B,), float64; each depends only on (p, seed, its index). Each example's generator
+    gives, in order: its uniforms, its normals (with `perturb`: box noise then camera noise), and
+    when shuffled the frame and the donor's uniforms and box noise."""
+    rngs = example_rngs(seed, [int(i) for i in indices])
+    n, k = p.num_pos, _n_uniforms(p)
+    box_noise = p.perturb and p.std_dev > 0
+    cam_noise = p.perturb and p.cam_dev > 0
+    n_normal = 4 * n * box_noise + 3 * (n - 1) * cam_noise
+    u = np.empty((len(rngs), k))
+    normal = np.empty((len(rngs), n_normal))
+    donors: list[tuple[int, int, np.ndarray, np.ndarray]] = []  # example, frame, uniforms, box noise
+    for i, rng in enumerate(rngs):
+        u[i] = rng.random(k)
+        normal[i] = rng.standard_normal(n_normal)
+        if p.perturb and p.shuffle > 0 and u[i, 12] < p.shuffle:
+            donors.append((i, int(rng.integers(n)), rng.random(k), rng.standard_normal(4 * n * box_noise)))
+    boxes, pos = _boxes(p, u, normal[:, :4 * n] if box_noise else None)
+    if donors:
+        given, _ = _boxes(p, np.array([d[2] for d in donors]),
+                          np.array([d[3] for d in donors]) if box_noise else None)
+        for (i, frame, _, _), b in zip(donors, given, strict=True):
+            boxes[i, frame] = b[frame]
+    move = pos[:, -1:] - pos
+    if cam_noise:
+        move[:, :-1] += p.cam_dev * normal[:, n_normal - 3 * (n - 1):].reshape(len(rngs), n - 1, 3)
+    return {"boxes": boxes, "move": move, "depth": pos[:, -1, 2].copy()}
