@@ -20,6 +20,17 @@ SHARED = Path(os.environ.get("ODMS_SHARED", REPO.parent / "shared"))
 ARCHIVE = SHARED / "data" / "odms-v1.tar.gz"
 
 
+@pytest.fixture(autouse=True, scope="module")
+def _environment_kept():
+    """Each test module leaves os.environ as it found it: an in-process Dask cluster sets
+    OMP_NUM_THREADS and others for its workers, which the commands later tests start would
+    inherit."""
+    saved = dict(os.environ)
+    yield
+    os.environ.clear()
+    os.environ.update(saved)
+
+
 @pytest.fixture(scope="session")
 def official_archive() -> Path:
     if not ARCHIVE.is_file():

@@ -30,7 +30,7 @@ def _parse_param(values: tuple[str, ...]) -> dict:
         try:
             out[key] = safe_json.loads(raw, f"--param '{item}'")
         except InputError as e:
-            raise InputError(f"{e}; the value must be a number or JSON list") from None
+            raise InputError(f"{e}; the value is not a number or JSON list") from None
     return out
 
 

@@ -13,6 +13,7 @@ transparency is read from its alpha channel when the object is drawn there (`_rg
 from __future__ import annotations
 
 import io
+import os
 import struct
 import warnings
 import zlib
@@ -123,13 +124,19 @@ def image_size(path: Path) -> tuple[int, int]:
 
 
 def _read(path: Path) -> bytes:
+    """The file's bytes, refused before they are read when it declares more than MAX_FILE_BYTES
+    (the buffer is sized by the file, not by the bound)."""
+    too_big = InputError(f"{path}: larger than the {MAX_FILE_BYTES >> 20} MiB a mask file may be")
     try:
         with path.open("rb") as f:
-            data = f.read(MAX_FILE_BYTES + 1)
+            size = os.fstat(f.fileno()).st_size
+            if size > MAX_FILE_BYTES:
+                raise too_big
+            data = f.read(size + 1)  # one byte more: a file that grew meanwhile is caught below
     except OSError as e:
         raise InputError(f"{path}: cannot be read ({e.strerror or e})") from None
     if len(data) > MAX_FILE_BYTES:
-        raise InputError(f"{path}: larger than the {MAX_FILE_BYTES >> 20} MiB a mask file may be")
+        raise too_big
     return data
 
 

@@ -220,5 +220,6 @@ def test_plot_without_matplotlib_says_how_to_get_it(tmp_path, official_like):
     args = ["score", str(_preds(tmp_path)), "--data", str(official_like), "--plot", str(tmp_path / "e.png")]
     r = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True)
     assert (r.returncode, r.stdout) == (2, "")
-    assert r.stderr.strip() == ("odms-data: error: --plot needs matplotlib, which is not installed; "
-                                "pip install 'odms-data[plot]'")
+    assert r.stderr.strip() == ("odms-data: error: odms-data score --plot needs matplotlib, which is not "
+                                "installed: pip install 'odms-data[plot]' (in a clone of odms-data: pip "
+                                "install '.[plot]')")
