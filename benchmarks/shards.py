@@ -4,14 +4,15 @@ Run by hand: `python benchmarks/shards.py [--frames 4096] [--repeat 5]`. One loc
 generated-looking packed masks (480x640, 10 frames a chunk, 100 a shard) is written shard by shard
 through a `MaskSink` and through `zarr` (`masks[a:b] = ...`), then read back one example (10
 frames) at a time through `ShardReader` and through zarr. Both paths must give the same bytes.
-Medians of --repeat runs, CPU seconds of this process; written to benchmarks/results/shards.json.
+Medians of --repeat runs, CPU seconds of this process; written to benchmarks/results/shards.json
+(_results.py), zarr's own write as the baseline.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import statistics
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -23,8 +24,10 @@ from odms_data.store.masks import packed_width
 from odms_data.store.shard_reader import ShardReader
 from odms_data.store.writer import Layout, StoreWriter
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import _results  # noqa: E402
+
 H, W, CHUNK, SHARD = 480, 640, 10, 100
-RESULTS = Path(__file__).resolve().parent / "results" / "shards.json"
 
 
 def masks(frames: int) -> np.ndarray:
@@ -82,6 +85,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frames", type=int, default=4096)
     ap.add_argument("--repeat", type=int, default=5)
+    _results.add_options(ap)
     a = ap.parse_args()
     packed = masks(a.frames)
     names = ("direct write", "zarr write", "direct read", "zarr read")
@@ -96,16 +100,16 @@ def main() -> None:
                 times[f"{name} write"].append(write)
                 times[f"{name} read"].append(read)
     medians = {k: statistics.median(v) for k, v in times.items()}
-    result = {
-        "frames": a.frames, "image": [H, W], "frames_per_chunk": CHUNK, "frames_per_shard": SHARD,
-        "repeat": a.repeat, "cpu_s_median": medians,
-        "zarr_over_direct": {op: medians[f"zarr {op}"] / medians[f"direct {op}"] for op in ("write", "read")},
-    }
-    RESULTS.parent.mkdir(exist_ok=True)
-    RESULTS.write_text(json.dumps(result, indent=2) + "\n")
     for k, v in medians.items():
         print(f"{k:13} {v:8.3f} CPU-s")
-    print(f"written to {RESULTS}")
+    rows = [{"path": path, "operation": op, "cpu_s_median": medians[f"{path} {op}"],
+             "zarr_over_direct": medians[f"zarr {op}"] / medians[f"direct {op}"]}
+            for op in ("write", "read") for path in ("direct", "zarr")]
+    _results.save(a, f"Shards: the direct shard path against zarr's, {a.frames} packed 480x640 masks",
+                  {"what": "zarr writing every shard (masks[a:b] = ...)", "value": medians["zarr write"],
+                   "unit": "CPU-s"}, rows,
+                  {"frames": a.frames, "image": [H, W], "frames_per_chunk": CHUNK, "frames_per_shard": SHARD,
+                   "repeat": a.repeat})
 
 
 if __name__ == "__main__":
