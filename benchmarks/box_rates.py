@@ -11,23 +11,18 @@ the median of --repeat runs, in examples per second on one process:
   released generator (standard_data.yaml, HSR camera, perturbations) making --count examples in
   one call, as its training demo does a batch.
 
-Writes JSON into benchmarks/results/.
+Writes benchmarks/results/box_rates.json (_results.py), the mask examples' generation rate as the
+baseline.
 """
 
 from __future__ import annotations
 
 import argparse
-import datetime
-import json
-import os
-import platform
 import statistics
 import subprocess
 import sys
 import time
 from pathlib import Path
-
-import numpy as np
 
 from odms_data.loaders import stream_batches
 from odms_data.simulate.batch_render import render_masks
@@ -35,7 +30,8 @@ from odms_data.simulate.box_examples import BOX_PRESETS, sample_box_examples
 from odms_data.simulate.object_model import sample_examples
 from odms_data.simulate.params import PRESETS
 
-HERE = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import _results  # noqa: E402
 
 
 def median_rate(fn, count: int, repeat: int) -> float:
@@ -76,6 +72,7 @@ def main() -> None:
     ap.add_argument("--batch", type=int, default=256)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--odmd", help="a checkout of griffbr/ODMD, to time the authors' generator too")
+    _results.add_options(ap)
     a = ap.parse_args()
     boxes, masks = BOX_PRESETS["odmd"], PRESETS["standard"]
     rates = {
@@ -92,21 +89,19 @@ def main() -> None:
     }
     if a.odmd:
         rates["generate_boxes_odmd_code"] = odmd_generator(a.odmd, a.count, a.repeat)
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
-                            cwd=HERE).stdout.strip()
-    result = {
-        "benchmark": "box_rates", "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-        "commit": commit, "machine": {"platform": platform.platform(), "cores": os.cpu_count(),
-                                      "load_1min": os.getloadavg()[0], "numpy": np.__version__},
-        "count": a.count, "mask_count": a.mask_count, "batch": a.batch, "repeat": a.repeat,
-        "examples_per_s": rates,
-        "boxes_over_masks": {"generate": rates["generate_boxes"] / rates["generate_masks"],
-                             "stream": rates["stream_boxes"] / rates["stream_masks"]},
-    }
-    out = HERE / "benchmarks" / "results" / f"box_rates-{result['date'][:10]}.json"
-    out.parent.mkdir(exist_ok=True)
-    out.write_text(json.dumps(result, indent=2) + "\n")
-    print(json.dumps(result, indent=2))
+    cases = {"generate_boxes": ("generate", "boxes (simulate.box_examples)", a.count),
+             "generate_masks": ("generate", "masks (object_model + batch_render)", a.mask_count),
+             "stream_boxes": ("stream", "boxes (DBox inputs)", a.batch * max(1, a.count // a.batch)),
+             "stream_masks": ("stream", "masks (ODN's 112x112 inputs)", a.mask_count),
+             "generate_boxes_odmd_code": ("generate", "boxes (the authors' ODMD generator)", a.count)}
+    rows = [{"what": cases[k][0], "examples": cases[k][1], "count": cases[k][2], "examples_per_s": rate,
+             "over_masks": rate / rates[f"{cases[k][0]}_masks"]} for k, rate in rates.items()]
+    for row in rows:
+        print(row)
+    _results.save(a, "Box examples against mask examples: generation and streaming rates",
+                  {"what": "generating mask examples", "value": rates["generate_masks"],
+                   "unit": "examples/s"},
+                  rows, {"batch": a.batch, "repeat": a.repeat})
 
 
 if __name__ == "__main__":
