@@ -5,20 +5,22 @@ Run by hand: `python benchmarks/write_rule.py --before DIR [--files 300] [--coun
 holds the previous code's `odms_data` package (e.g. `git archive main odms_data | tar -x -C DIR`).
 Each side runs in a fresh process: the median of --repeat times of writing --files small files
 (write_text, the path of entries, CSVs and plots) and of `generate` of --count examples into a
-Zarr store and into an HDF5 store. Writes JSON into benchmarks/results/.
+Zarr store and into an HDF5 store. Writes benchmarks/results/write_rule.json (_results.py), the
+previous code's writing of the files as the baseline.
 """
 
 from __future__ import annotations
 
 import argparse
-import datetime
 import json
 import os
-import platform
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import _results  # noqa: E402
 
 CHILD = """
 import json, shutil, statistics, sys, tempfile, time
@@ -59,23 +61,23 @@ def main() -> None:
     ap.add_argument("--files", type=int, default=300)
     ap.add_argument("--count", type=int, default=200)
     ap.add_argument("--repeat", type=int, default=3)
+    _results.add_options(ap)
     a = ap.parse_args()
     here = str(Path(__file__).resolve().parents[1])
     after = run(here, a.files, a.count, a.repeat)
     before = run(a.before, a.files, a.count, a.repeat)
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
-                            cwd=here).stdout.strip()
-    result = {
-        "benchmark": "write_rule", "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-        "commit": commit, "machine": {"platform": platform.platform(), "cores": os.cpu_count(),
-                                      "load_1min": os.getloadavg()[0]},
-        "files": a.files, "count": a.count, "repeat": a.repeat, "before": before, "after": after,
-        "ratio": {k: after[k] / before[k] for k in after},
-    }
-    out = Path(here) / "benchmarks" / "results" / f"write_rule-{result['date'][:10]}.json"
-    out.parent.mkdir(exist_ok=True)
-    out.write_text(json.dumps(result, indent=2) + "\n")
-    print(json.dumps(result, indent=2))
+    cases = {"files_s": f"write_text of {a.files} small files",
+             "generate_zarr_s": f"generate {a.count} examples, Zarr",
+             "generate_hdf5_s": f"generate {a.count} examples, HDF5"}
+    rows = [{"measurement": what, "before_s": before[k], "after_s": after[k],
+             "after_over_before": after[k] / before[k]}
+            for k, what in cases.items()]
+    for row in rows:
+        print(row)
+    _results.save(a, "The write rule (outputs.py) against the code before it",
+                  {"what": f"the previous code's write_text of {a.files} small files",
+                   "value": before["files_s"], "unit": "s"}, rows,
+                  {"files": a.files, "count": a.count, "repeat": a.repeat})
 
 
 if __name__ == "__main__":
