@@ -13,16 +13,14 @@ A store of --count generated examples is written in Zarr and HDF5 with this chec
 - score: the labels of the store and scoring a predictions file of every example (what `score`
   does after parsing its arguments).
 
-Each figure is the median of --repeat child runs; the JSON goes to benchmarks/results/.
+Each figure is the median of --repeat child runs; written to benchmarks/results/untrusted_reads.json
+(_results.py), the --base code reading the Zarr store as the baseline.
 """
 
 from __future__ import annotations
 
 import argparse
-import datetime
-import json
 import os
-import platform
 import statistics
 import subprocess
 import sys
@@ -30,6 +28,8 @@ import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "benchmarks"))
+import _results  # noqa: E402
 
 CHILD = r"""
 import sys, time
@@ -74,11 +74,18 @@ def base_source(base: str, into: Path) -> str:
     return commit
 
 
+def table(figures: dict[str, dict[str, float]]) -> list[dict[str, object]]:
+    """One row a store format and operation: the --base code's seconds, this code's, their ratio."""
+    return [{"store": key.split()[0], "operation": key.split()[1], "base_s": f["base_s"], "new_s": f["new_s"],
+             "new_over_base": f["ratio"]} for key, f in figures.items()]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--count", type=int, default=2000)
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--base", default="main")
+    _results.add_options(ap)
     args = ap.parse_args()
 
     from odms_data.evaluation.predictions import write_predictions
@@ -113,21 +120,12 @@ def main() -> None:
                 new = statistics.median(times[f"{fmt} {what} new"])
                 figures[f"{fmt} {what}"] = {"base_s": round(base, 4), "new_s": round(new, 4),
                                             "ratio": round(new / base, 3)}
-    git = {"cwd": ROOT, "capture_output": True, "text": True}
-    head = subprocess.run(["git", "rev-parse", "HEAD"], **git).stdout.strip()
-    dirty = subprocess.run(["git", "status", "--porcelain", "odms_data"], **git).stdout.strip()
-    result = {
-        "benchmark": "untrusted_reads",
-        "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-        "machine": {"platform": platform.platform(), "processor": platform.processor(),
-                    "cpus": os.cpu_count(), "load_average": os.getloadavg()},
-        "commit": head + (" (with uncommitted changes)" if dirty else ""), "base_commit": base_commit,
-        "examples": args.count, "repeat": args.repeat, "figures": figures,
-    }
-    out = ROOT / "benchmarks" / "results" / "untrusted_reads.json"
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2) + "\n")
-    print(json.dumps(figures, indent=2))
+    for row in table(figures):
+        print(row)
+    _results.save(args, f"Untrusted reads: open, read and score of {args.count} examples against --base",
+                  {"what": f"the code at {args.base} ({base_commit[:12]}) reading every example, Zarr",
+                   "value": figures["zarr read"]["base_s"], "unit": "s"}, table(figures),
+                  {"base_commit": base_commit, "examples": args.count, "repeat": args.repeat})
 
 
 if __name__ == "__main__":
