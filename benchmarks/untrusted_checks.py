@@ -8,7 +8,8 @@ Run by hand: `python benchmarks/untrusted_checks.py [--old main] [--frames 600] 
   `paths.inside`) against decoding the file with cv2, in this process.
 - score --entry: what `score` reads of a generated store (`load_truth`, the labels) against the
   verification an entry adds (`verify_truth`, every mask read and digested).
-Writes benchmarks/results/untrusted_checks.json (results_json.py).
+Writes benchmarks/results/untrusted_checks.json (_results.py), the --old code's import CPU time as
+the baseline.
 """
 
 from __future__ import annotations
@@ -26,7 +27,6 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from results_json import machine, save
 
 from odms_data.evaluation.ground_truth import load_truth, verify_truth
 from odms_data.importers.mask_files import image_size
@@ -35,6 +35,8 @@ from odms_data.simulate.generate_store import generate
 from odms_data.simulate.params import GeneratorParams
 
 REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "benchmarks"))
+import _results  # noqa: E402
 
 
 def write_recording(root: Path, n: int) -> tuple[Path, Path]:
@@ -91,14 +93,39 @@ def verification(root: Path, examples: int) -> dict[str, float]:
     return {"examples": examples, "load_truth_s": read, "verify_truth_s": verify}
 
 
+def table(figures: dict[str, dict]) -> list[dict[str, object]]:
+    """One row a measurement: its seconds, what it is compared with and the ratio to that."""
+    imp, per, entry = figures["import_recording"], figures["per_mask_file"], figures["score_entry"]
+    name = f"import recording, {imp['frames']} frames"
+    return [
+        {"measurement": f"{name}, old code, CPU", "seconds": imp["old"]["cpu_s"], "against": "itself",
+         "ratio": 1.0},
+        {"measurement": f"{name}, this code, CPU", "seconds": imp["new"]["cpu_s"], "against": "old code",
+         "ratio": imp["cpu_new_over_old"]},
+        {"measurement": f"{name}, old code, wall", "seconds": imp["old"]["wall_s"], "against": "itself",
+         "ratio": 1.0},
+        {"measurement": f"{name}, this code, wall", "seconds": imp["new"]["wall_s"], "against": "old code",
+         "ratio": imp["new"]["wall_s"] / imp["old"]["wall_s"]},
+        {"measurement": "header check + path confinement, per mask file", "seconds": per["checks_ms"] / 1e3,
+         "against": "cv2 decode", "ratio": per["checks_over_decode"]},
+        {"measurement": "cv2 decode, per mask file", "seconds": per["cv2_decode_ms"] / 1e3,
+         "against": "itself", "ratio": 1.0},
+        {"measurement": f"score: load_truth, {entry['examples']} examples", "seconds": entry["load_truth_s"],
+         "against": "itself", "ratio": 1.0},
+        {"measurement": f"score --entry: verify_truth, {entry['examples']} examples",
+         "seconds": entry["verify_truth_s"], "against": "load_truth",
+         "ratio": entry["verify_truth_s"] / entry["load_truth_s"]},
+    ]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--old", default="main", help="git revision of the old code")
     ap.add_argument("--frames", type=int, default=600)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--examples", type=int, default=2000, help="of the store score --entry verifies")
+    _results.add_options(ap)
     a = ap.parse_args()
-    before = machine()
     tmp = Path(tempfile.mkdtemp())
     try:
         old = tmp / "old"
@@ -118,7 +145,12 @@ def main() -> None:
         figures = {"import_recording": {"frames": a.frames, "old": a.old, "repeats": a.repeats, **imports,
                                         "cpu_new_over_old": ratio},
                    "per_mask_file": per_file(masks), "score_entry": verification(tmp, a.examples)}
-        print(save("untrusted_checks", figures, before).read_text())
+        for row in table(figures):
+            print(row)
+        _results.save(a, "Untrusted input: the cost of the checks against the old code",
+                      {"what": f"the code at {a.old} importing {a.frames} frames, CPU",
+                       "value": imports["old"]["cpu_s"], "unit": "CPU-s"}, table(figures),
+                      {"figures": figures})
     finally:
         shutil.rmtree(tmp)
 
