@@ -55,6 +55,16 @@ def run(src: str, files: int, count: int, repeat: int) -> dict[str, float]:
     return json.loads(out.stdout.splitlines()[-1])
 
 
+def table(before: dict[str, float], after: dict[str, float], files: int,
+          count: int) -> list[dict[str, object]]:
+    """One row a measurement: the previous code's seconds, this code's, their ratio."""
+    cases = {"files_s": f"write_text of {files} small files",
+             "generate_zarr_s": f"generate {count} examples, Zarr",
+             "generate_hdf5_s": f"generate {count} examples, HDF5"}
+    return [{"measurement": what, "before_s": before[k], "after_s": after[k],
+             "after_over_before": after[k] / before[k]} for k, what in cases.items()]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--before", required=True, help="folder holding the previous code's odms_data")
@@ -66,12 +76,7 @@ def main() -> None:
     here = str(Path(__file__).resolve().parents[1])
     after = run(here, a.files, a.count, a.repeat)
     before = run(a.before, a.files, a.count, a.repeat)
-    cases = {"files_s": f"write_text of {a.files} small files",
-             "generate_zarr_s": f"generate {a.count} examples, Zarr",
-             "generate_hdf5_s": f"generate {a.count} examples, HDF5"}
-    rows = [{"measurement": what, "before_s": before[k], "after_s": after[k],
-             "after_over_before": after[k] / before[k]}
-            for k, what in cases.items()]
+    rows = table(before, after, a.files, a.count)
     for row in rows:
         print(row)
     _results.save(a, "The write rule (outputs.py) against the code before it",
