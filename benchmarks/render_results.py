@@ -42,7 +42,8 @@ def section(r: dict[str, Any]) -> str:
              f"- run {r['date']} at commit {r['commit']}",
              f"- machine: {m['cores']} cores ({cell(m.get('cores_usable'))} usable), {m['cpu_model']}, "
              f"{cell(m.get('memory_gib'))} GiB, {cell(m.get('system'))}, Python {cell(m.get('python'))}; "
-             f"load average {cell(start[0])} at the start, {cell(end[0])} at the end"]
+             f"load average {'–' if start[0] is None else start[0]} at the start, "
+             f"{'–' if end[0] is None else end[0]} at the end"]
     if r.get("notes"):
         lines.append(f"- notes: {r['notes']}")
     b = r["baseline"]
