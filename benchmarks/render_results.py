@@ -37,13 +37,11 @@ def cell(value: Any) -> str:
 
 def section(r: dict[str, Any]) -> str:
     m = r["machine"]
-    start, end = (m.get(k) or [None] for k in ("load_average_at_start", "load_average_at_end"))
     lines = [f"## {r['title']}", "", f"`{r['command']}`", "",
              f"- run {r['date']} at commit {r['commit']}",
-             f"- machine: {m['cores']} cores ({cell(m.get('cores_usable'))} usable), {m['cpu_model']}, "
-             f"{cell(m.get('memory_gib'))} GiB, {cell(m.get('system'))}, Python {cell(m.get('python'))}; "
-             f"load average {'–' if start[0] is None else start[0]} at the start, "
-             f"{'–' if end[0] is None else end[0]} at the end"]
+             f"- machine: {m['cores']} cores ({m['cores_usable']} usable), {m['cpu_model']}, "
+             f"{m['memory_gib']} GiB, {m['system']}, Python {m['python']}; load average "
+             f"{m['load_average_at_start'][0]} at the start, {m['load_average_at_end'][0]} at the end"]
     if r.get("notes"):
         lines.append(f"- notes: {r['notes']}")
     b = r["baseline"]
