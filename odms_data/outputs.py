@@ -184,20 +184,24 @@ def output_lock(path: str | os.PathLike, kind: Kind = FILE) -> Iterator[None]:
                 break  # not empty: it holds the output
 
 
-def _ours(folder: Path) -> bool:
-    """Whether `folder` is a sibling folder odms-data made: a real folder, empty or with the marker."""
+def _ours(folder: Path, kind: Kind) -> bool:
+    """Whether `folder` is a sibling folder odms-data made: a real folder, empty, with the marker,
+    or (for a folder output) an output of this kind that `kind` recognises as odms-data's, as a
+    run killed between the marker's removal and the rename leaves it."""
     try:
         if not stat.S_ISDIR(os.lstat(folder).st_mode):
             return False
         names = os.listdir(folder)
-        return not names or (MARKER in names and stat.S_ISREG(os.lstat(folder / MARKER).st_mode))
+        if not names or (MARKER in names and stat.S_ISREG(os.lstat(folder / MARKER).st_mode)):
+            return True
     except FileNotFoundError:
         return False
+    return kind is not FILE and kind.foreign(folder) is None
 
 
 def _refuse_foreign(folder: Path, target: Path, kind: Kind) -> None:
     """Refuse a sibling `folder` of `target` that is there and not odms-data's own."""
-    if os.path.lexists(folder) and not _ours(folder):
+    if os.path.lexists(folder) and not _ours(folder, kind):
         what = "a symbolic link" if folder.is_symlink() else "a folder" if folder.is_dir() else "a file"
         raise kind.exists_error(f"{folder}: is {what} odms-data did not make; odms-data writes {target} "
                                 "through this name, so move it away")
