@@ -103,11 +103,8 @@ def _write_split(store: Store, folder: Path, examples_per_file: int, progress: P
 
 
 def sha256(path: Path) -> str:
-    h = hashlib.sha256()
     with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
+        return hashlib.file_digest(f, "sha256").hexdigest()
 
 
 def _not_an_export(path: Path) -> str | None:
