@@ -17,12 +17,14 @@ import numpy as np
 import zarr
 from zarr.codecs import ShardingCodec, ZstdCodec
 from zarr.core.buffer.cpu import as_numpy_array_wrapper
+from zarr.core.chunk_grids import RegularChunkGrid
+from zarr.core.indexing import get_indexer
 from zarr.registry import register_codec
 
 from ..errors import StoreError
 from .chunk_codecs import zstd_decode
 
-_decoding = ContextVar("decoding", default=False)  # a shard index is read for a read, not a write
+_wanted: ContextVar[frozenset | set] = ContextVar("wanted", default=frozenset())  # chunks a read needs
 
 
 @dataclass(frozen=True)
@@ -39,29 +41,25 @@ class BoundedZstdCodec(ZstdCodec):
 
 
 class WholeShardCodec(ShardingCodec):
-    """zarr's sharding codec, refusing a shard whose index lacks a chunk when it is read. A write
-    that fills a shard in parts reads indexes that lack chunks still to come: those pass."""
+    """zarr's sharding codec, refusing a read of a chunk that its shard's index lacks. Only the
+    chunks read are required: the last shard has none past the array's end, and a write that fills
+    a shard in parts reads an index that lacks the chunks still to come."""
 
-    async def _decode_single(self, *args: Any) -> Any:
-        token = _decoding.set(True)
+    async def _decode_partial_single(self, byte_getter: Any, selection: Any, shard_spec: Any) -> Any:
+        grid = RegularChunkGrid(chunk_shape=self.chunk_shape)
+        token = _wanted.set({coords for coords, *_ in get_indexer(selection, shape=shard_spec.shape,
+                                                                   chunk_grid=grid)})
         try:
-            return await super()._decode_single(*args)
+            return await super()._decode_partial_single(byte_getter, selection, shard_spec)
         finally:
-            _decoding.reset(token)
-
-    async def _decode_partial_single(self, *args: Any) -> Any:
-        token = _decoding.set(True)
-        try:
-            return await super()._decode_partial_single(*args)
-        finally:
-            _decoding.reset(token)
+            _wanted.reset(token)
 
     async def _decode_shard_index(self, *args: Any) -> Any:
         index = await super()._decode_shard_index(*args)
-        present = index.get_full_chunk_map()
-        if _decoding.get() and not present.all():
-            k = int(np.flatnonzero(~present.ravel())[0])
-            raise StoreError(f"chunk {k} of a shard is missing (a damaged store)")
+        for coords in sorted(_wanted.get()):
+            if index.get_chunk_slice(coords) is None:
+                k = int(np.ravel_multi_index(coords, index.offsets_and_lengths.shape[:-1]))
+                raise StoreError(f"chunk {k} of a shard is missing (a damaged store)")
         return index
 
 
