@@ -155,10 +155,24 @@ class ZarrBackend(Backend):
             raise StoreError(f"{self.path}: cannot list arrays ({type(e).__name__}: {e})") from e
 
     def _check_metadata(self, name: str) -> None:
-        """Bound the size and depth of a local zarr.json before zarr parses it (safe_json.py)."""
-        meta = Path(self.path) / name / "zarr.json"
-        if not is_url(self.path) and meta.is_file():
-            safe_json.load_file(meta, StoreError)
+        """Bound the size and depth of a zarr.json, local or at a URL, before zarr parses it
+        (safe_json.py); zarr reads it again, a small file."""
+        if not is_url(self.path):
+            meta = Path(self.path) / name / "zarr.json"
+            if meta.is_file():
+                safe_json.load_file(meta, StoreError)
+            return
+        import fsspec
+
+        url = "/".join([str(self.path).rstrip("/"), *([name] if name else []), "zarr.json"])
+        try:
+            with fsspec.open(url, "rb") as f:
+                raw = f.read(safe_json.MAX_BYTES + 1)
+        except FileNotFoundError:
+            return  # zarr says what is missing
+        except OSError as e:
+            raise StoreError(f"{url}: cannot be read ({e.strerror or e})") from None
+        safe_json.loads(raw, url, StoreError)
 
     def array(self, name: str) -> Any:
         self._check_metadata(name)

@@ -1,5 +1,6 @@
-"""Ctrl-C at any moment of a command that uses workers prints one line: the terminal's SIGINT, sent
-to the whole process group (the command, its fork server and workers), of a real `generate`."""
+"""Ctrl-C (or a SIGTERM to the whole process group, as a job scheduler sends) at any moment of a
+command that uses workers prints one line: a real signal, sent to the whole process group (the
+command, its fork server and workers), of a real `generate`."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ from pathlib import Path
 import psutil
 import pytest
 
-INTERRUPTED = "odms-data: interrupted (SIGINT); nothing was left half-written"
+INTERRUPTED = "odms-data: interrupted ({}); nothing was left half-written"
 
 
 def _wait_for(condition: Callable[[], bool], p: subprocess.Popen) -> None:
@@ -34,15 +35,16 @@ def _fork_server(p: subprocess.Popen, loading_kernels: bool) -> bool:
     return False
 
 
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
 @pytest.mark.parametrize("moment", ["store begun", "fork server starts", "kernels load", "mid-run"])
-def test_ctrl_c_prints_one_line(tmp_path, moment):
+def test_stop_signal_prints_one_line(tmp_path, moment, signum):
     out = tmp_path / "out.zarr"
     p = subprocess.Popen(
         [str(Path(sys.executable).with_name("odms-data")), "generate", "-n", "3000", "--workers", "2",
          "--examples-per-shard", "20", "-o", str(out)],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
-        # Ctrl-C's default disposition, as in a terminal, also where these tests run in the background
-        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+        # the signal's default disposition, as in a terminal, also where these tests run in the background
+        preexec_fn=lambda: signal.signal(signum, signal.SIG_DFL))
     if moment == "store begun":  # before any worker: the store's partial folder is there
         _wait_for(lambda: any(tmp_path.iterdir()), p)
     elif moment == "fork server starts":
@@ -53,8 +55,36 @@ def test_ctrl_c_prints_one_line(tmp_path, moment):
         assert p.stderr is not None
         first = p.stderr.readline()
         assert first.startswith("generating "), first
-    os.killpg(p.pid, signal.SIGINT)
+    os.killpg(p.pid, signum)
     _, err = p.communicate(timeout=120)
     lines = [line for line in err.splitlines() if not line.startswith("generating ")]
-    assert p.returncode == 130 and lines == [INTERRUPTED], err
+    assert p.returncode == 128 + signum and lines == [INTERRUPTED.format(signum.name)], err
     assert not any(tmp_path.iterdir())
+
+
+FINALIZER_GETS_THE_SIGNAL = """
+import os, signal, sys, time
+from odms_data.cli import _signals_interrupt
+
+class Finalized:
+    def __del__(self):  # the signal comes while the finalizer runs; Python swallows what it raises
+        os.kill(os.getpid(), signal.SIGTERM)
+        for _ in range(1000):
+            pass
+
+with _signals_interrupt():
+    try:
+        Finalized()
+        time.sleep(30)
+        sys.exit("the stop was lost: the command ran on to its end")
+    except KeyboardInterrupt as e:
+        sys.exit(128 + e.signum)
+"""
+
+
+def test_stop_during_a_finalizer_is_not_lost():
+    """A stop signal that arrives while a finalizer runs stops the command, without the traceback
+    Python prints for an exception raised in a finalizer."""
+    p = subprocess.run([sys.executable, "-c", FINALIZER_GETS_THE_SIGNAL], capture_output=True, text=True,
+                       timeout=120)
+    assert p.returncode == 128 + signal.SIGTERM and p.stderr == "", p.stderr
