@@ -84,31 +84,34 @@ def check_replaceable(
 ) -> None:
     """Refuse an output path that exists (unless `overwrite`), or that `kind` says odms-data does
     not replace, or whose name does not end with one of `suffixes` (when given: a CSV named
-    x.zarr would pass for a store). `option` names the command-line option that gave the path."""
+    x.zarr would pass for a store). `option`, the name of the input that gave the path, starts the
+    message and is the error's `option` (errors.OdmsError)."""
     p = Path(path)
 
     def foreign() -> str | None:
         return "is a symbolic link" if kind is not FILE and p.is_symlink() else kind.foreign(p)
 
     refuse_existing(f"{option} {path}" if option else str(path), p.exists() or p.is_symlink(), overwrite,
-                    foreign, kind)
+                    foreign, kind, option)
     if suffixes and p.suffix.lower() not in suffixes:
-        raise InputError(f"{option + ' ' if option else ''}{path}: name the file *{' or *'.join(suffixes)}")
+        raise InputError(f"{option + ' ' if option else ''}{path}: name the file *{' or *'.join(suffixes)}",
+                         option=option)
 
 
 def refuse_existing(where: str, exists: bool, overwrite: bool, foreign: Callable[[], str | None],
-                    kind: Kind) -> None:
+                    kind: Kind, option: str = "") -> None:
     """The rule itself, for a local path or a URL: `foreign()` says what makes what is there
-    something odms-data does not replace (None: it may be replaced with `overwrite`)."""
+    something odms-data does not replace (None: it may be replaced with `overwrite`); `option`
+    names the input `where` starts with, if any."""
     if not exists:
         return
     what = foreign()
     if what and kind is FILE:  # a folder where a file goes: no overwriting would help
-        raise kind.exists_error(f"{where}: {what}")
+        raise kind.exists_error(f"{where}: {what}", option=option)
     if not overwrite:
-        raise kind.exists_error(f"{where}: already exists", fix="overwrite")
+        raise kind.exists_error(f"{where}: already exists", fix="overwrite", option=option)
     if what:
-        raise kind.exists_error(f"{where}: {what}", fix="overwrite-ours")
+        raise kind.exists_error(f"{where}: {what}", fix="overwrite-ours", option=option)
 
 
 def _make_parents(path: Path) -> list[Path]:

@@ -63,11 +63,13 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
         raise InputError(f"--plot and --entry both name {plot}; give two files")
     if plot:
         from ..evaluation.error_plots import plot_format
+        from ..extras import pyplot
 
-        check_replaceable(plot, overwrite, option="--plot")
+        pyplot("odms-data score --plot")  # matplotlib is there, said with the command's name
+        check_replaceable(plot, overwrite, option="plot")
         plot_format(plot)  # before scoring: matplotlib is there and knows the suffix
     if entry:
-        check_replaceable(entry, overwrite, option="--entry", suffixes=(".json",))
+        check_replaceable(entry, overwrite, option="entry", suffixes=(".json",))
     with Bars("verifying {}") as bars:  # the digests an entry records, checked first
         preds, report = Evaluation(data).score(predictions, allow_partial=allow_partial, verify=bool(entry),
                                                progress=bars)
@@ -86,7 +88,7 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
         e = entry_from_report(report, name, citation=citation, link=link, n_obs=n_obs,
                               predictions_sha256=preds.sha256)
         write_text(entry, json.dumps(e.to_json(), indent=2, ensure_ascii=False, allow_nan=False) + "\n",
-                   overwrite=overwrite, option="--entry")
+                   overwrite=overwrite, option="entry")
         click.echo(f"wrote {entry}", err=True)
 
 
@@ -118,7 +120,7 @@ def vosde(stores, data, n_obs, output, overwrite, as_json):
     """
     from ..evaluation.evaluate import Evaluation, vosde_baseline
 
-    check_replaceable(output, overwrite, option="-o", suffixes=(".csv",))
+    check_replaceable(output, overwrite, option="output", suffixes=(".csv",))
     evaluation = Evaluation(data)
     paths = evaluation.stores(stores)
     with progress(len(paths), "VOS-DE (stores)") as update:
@@ -162,7 +164,7 @@ def box_ls(stores, data, n_obs, odmd_conversion, output, overwrite, as_json):
     """
     from ..evaluation.evaluate import Evaluation, box_ls_baseline
 
-    check_replaceable(output, overwrite, option="-o", suffixes=(".csv",))
+    check_replaceable(output, overwrite, option="output", suffixes=(".csv",))
     evaluation = Evaluation(data)
     paths = evaluation.stores(stores)
     with progress(len(paths), "Box_LS (stores)") as update:

@@ -137,7 +137,7 @@ def show(store, example_id, output, crop, overwrite):
     """
     from ..publish.contact_sheet import contact_sheet, image_format, save_image
 
-    check_replaceable(output, overwrite, option="-o")
+    check_replaceable(output, overwrite, option="output")
     image_format(output)
     with open_store(store) as s:
         sheet = contact_sheet(s.example(example_id), crop=crop)

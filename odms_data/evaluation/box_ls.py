@@ -112,7 +112,7 @@ def chosen_frames(store: Store, n_obs: int, odmd_conversion: bool) -> list[np.nd
 def box_ls(store: Store, n_obs: int = DEFAULT_N_OBS, odmd_conversion: bool = False) -> BoxLsResult:
     """Box_LS estimates for every example of `store`, from the boxes of its masks."""
     if n_obs < 2:
-        raise InputError(f"--n-obs must be at least 2, got {n_obs}")
+        raise InputError(f"n_obs must be at least 2, got {n_obs}")
     frames = chosen_frames(store, n_obs, odmd_conversion)
     used = np.unique(np.concatenate(frames)) if frames else np.zeros(0, np.int64)
     boxes_of = np.zeros((store.n_frames, 4))

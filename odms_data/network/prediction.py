@@ -76,7 +76,7 @@ def predict(
     """Write the predictions file (schemas/PREDICTIONS.md) of the run's `which` checkpoint for every
     example of `stores` ({split: path}); returns (rows, the run's config, {split: the iteration of
     the checkpoint that predicted it})."""
-    check_replaceable(output, overwrite, option="-o", suffixes=(".csv",))  # before the work, and when written
+    check_replaceable(output, overwrite, option="output", suffixes=(".csv",))  # now, and when written
     dev = pick_device(device)
     order = sorted(stores, key=split_order)
     # every checkpoint is loaded before the work, so that a missing one shows at once

@@ -145,7 +145,7 @@ class RunFolder:
         mine = [s for s in sets if domain_of(s) == domain_of(split)]
         if len(mine) != 1:
             what = "no validation set" if not mine else f"several validation sets ({', '.join(mine)})"
-            raise InputError(f"{self.path}: --checkpoint {PER_SET} needs the best checkpoint of {split}'s "
+            raise InputError(f"{self.path}: checkpoint {PER_SET} needs the best checkpoint of {split}'s "
                              f"own validation set, and the run has {what} of that domain; its per-set "
                              f"checkpoints: {', '.join(sets) or 'none (train again to write them)'}")
         return self.file(best_of(mine[0]))

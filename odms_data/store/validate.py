@@ -182,7 +182,7 @@ def _version_hint(version: int | None, manifest: SplitManifest) -> str:
     if version is None or version == manifest.generator_version:
         return ""
     return (f": the store was made by generator version {version}, the split is version "
-            f"{manifest.generator_version}'s (odms-data generate --split {manifest.name})")
+            f"{manifest.generator_version}'s (generate split {manifest.name} again)")
 
 
 def _first(values, k: int = 5) -> str:
