@@ -8,13 +8,13 @@ import difflib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from ..errors import InputError
 from ..protocol import split_order
 from ..store.reader import Store, open_store
+from .baseline_result import BaselineCounts, BaselineResult
 from .box_ls import box_ls
 from .ground_truth import SplitTruth, data_locations, find_stores, load_truth, stores_by_split, verify_truth
 from .predictions import Predictions, read_predictions, write_predictions
@@ -24,46 +24,18 @@ from .vosde import vosde
 
 @dataclass(frozen=True)
 class Baseline:
-    """A baseline method as Evaluation runs it: how it runs over one open store (a result with
-    `split`, `d1`, `unsolvable` and `rows()`), and the examples it counts besides the unsolvable
-    ones: their name in the counts (`flag`) and where its result marks them (`flagged`)."""
+    """A baseline method as Evaluation runs it: its name and how it runs over one open store."""
 
     name: str
-    run: Callable[[Store], Any]
-    flag: str
-    flagged: Callable[[Any], np.ndarray]
+    run: Callable[[Store], BaselineResult]
 
 
 def vosde_baseline(n_obs: int) -> Baseline:
-    """VOS-DE: it also counts the examples with an empty mask among the used observations."""
-    return Baseline("VOS-DE", lambda s: vosde(s, n_obs), "empty_masks", lambda r: r.empty_masks)
+    return Baseline("VOS-DE", lambda s: vosde(s, n_obs))
 
 
 def box_ls_baseline(n_obs: int, odmd_conversion: bool) -> Baseline:
-    """Box_LS: it also counts the examples with a missing detection among the used observations."""
-    return Baseline("Box_LS", lambda s: box_ls(s, n_obs, odmd_conversion), "missing_detections",
-                    lambda r: r.missing)
-
-
-@dataclass(frozen=True)
-class BaselineCounts:
-    """One store's baseline run: its examples, those unsolvable (predicted 0) and those the method
-    flags (`flag`: empty masks for VOS-DE, missing detections for Box_LS)."""
-
-    split: str
-    examples: int
-    unsolvable: int
-    flag: str
-    flagged: int
-
-    def __post_init__(self) -> None:
-        if not 0 <= max(self.unsolvable, self.flagged) <= self.examples:
-            raise InputError(f"split {self.split}: counts must lie between 0 and its {self.examples} "
-                             "examples")
-
-    def to_json(self) -> dict[str, Any]:
-        return {"split": self.split, "examples": self.examples, "unsolvable": self.unsolvable,
-                self.flag: self.flagged}
+    return Baseline("Box_LS", lambda s: box_ls(s, n_obs, odmd_conversion))
 
 
 @dataclass(frozen=True)
@@ -123,8 +95,7 @@ class Evaluation:
                 r = method.run(s)
             progress(1)
             rows += r.rows()
-            counts.append(BaselineCounts(r.split, len(r.d1), int(r.unsolvable.sum()), method.flag,
-                                         int(method.flagged(r).sum())))
+            counts.append(r.counts())
         write_predictions(output, rows, overwrite=overwrite)
         return len(rows), counts
 
