@@ -14,6 +14,7 @@ from .digest import recompute_digest
 from .format import (
     ARRAYS,
     Z_ODDITY,
+    _first,
     attribute_problems,
     d1_problems,
     decode_strings,
@@ -183,8 +184,3 @@ def _version_hint(version: int | None, manifest: SplitManifest) -> str:
         return ""
     return (f": the store was made by generator version {version}, the split is version "
             f"{manifest.generator_version}'s (generate split {manifest.name} again)")
-
-
-def _first(values, k: int = 5) -> str:
-    values = list(values)
-    return ", ".join(str(int(v)) for v in values[:k]) + (", ..." if len(values) > k else "")
