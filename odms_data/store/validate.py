@@ -43,9 +43,9 @@ class Report:
         return not self.problems
 
 
-def validate(path: str, progress: Callable[[int], None] | None = None) -> Report:
+def validate(path: str, progress: Callable[[str, int, int], None] | None = None) -> Report:
     """Every problem of the store at `path`, one line each; never raises for a bad store.
-    `progress(k)` is called as each block of k frames' masks has been checked."""
+    `progress(path, frames done, frames total)` is called as each block of masks has been checked."""
     report = Report(str(path))
     try:
         backend = open_backend(str(path), "r")
@@ -80,7 +80,7 @@ def validate(path: str, progress: Callable[[int], None] | None = None) -> Report
     return report
 
 
-def _check_content(store: Store, report: Report, progress: Callable[[int], None] | None) -> None:
+def _check_content(store: Store, report: Report, progress: Callable[[str, int, int], None] | None) -> None:
     """Every rule of format.py over the arrays as stored, then the masks and the digest."""
     P = report.problems
     split = store.attrs.split
@@ -130,7 +130,7 @@ def _check_content(store: Store, report: Report, progress: Callable[[int], None]
     _check_masks(store, report, progress)
 
 
-def _check_masks(store: Store, report: Report, progress: Callable[[int], None] | None) -> None:
+def _check_masks(store: Store, report: Report, progress: Callable[[str, int, int], None] | None) -> None:
     W, pad_bits = store.width, packed_width(store.width) * 8 - store.width
     area, largest, bbox = store.raw("area"), store.raw("largest_area"), store.raw("bbox")
     pad_mask = np.uint8((1 << pad_bits) - 1) if pad_bits else None
@@ -146,7 +146,7 @@ def _check_masks(store: Store, report: Report, progress: Callable[[int], None] |
             if a != area[f] or la != largest[f] or tuple(bbox[f]) != box:
                 wrong_stats.append(f)
         if progress:
-            progress(len(block))
+            progress(report.path, start + len(block), store.n_frames)
 
     try:
         digest, _ = recompute_digest(store, visit)
