@@ -119,12 +119,6 @@ def _splits_of_seed(seed: int) -> list[str]:
     return [m.name for m in manifests if m.generator and m.generator.get("seed") == seed]
 
 
-def _not_a_run(path: Path) -> str | None:
-    if path.exists() and not path.is_dir():
-        return "exists and is not a folder; give a new folder for the run"
-    return None
-
-
 RUN_KIND = Kind("training run", lambda path: None)  # for the lock; RunFolder.check: what may be replaced
 
 
