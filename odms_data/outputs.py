@@ -329,12 +329,12 @@ def atomic_file(path: str | os.PathLike, *, overwrite: bool = False, option: str
 
 
 @contextmanager
-def replaced_via_partial(path: str | os.PathLike) -> Iterator[Path]:
+def replaced_via_partial(path: str | os.PathLike, kind: Kind = FILE, folder: bool = False) -> Iterator[Path]:
     """`atomic_file` without the lock and the existence check, for a file that its owner
     replaces as it goes (a training run's checkpoints, under the run's lock): yields the path to
     write, flushed and renamed onto `path` when the block ends normally, removed (and a full
     disk one line naming `path`) when it does not."""
-    partial = Partial(path, folder=False)
+    partial = Partial(path, folder=folder, kind=kind)
     try:
         yield partial.make()
         partial.commit()
@@ -363,13 +363,5 @@ def atomic_folder(path: str | os.PathLike, kind: Kind, *, overwrite: bool = Fals
     onto `path` (replacing what was there, if `kind` allows it) when the block ends normally."""
     with output_lock(path, kind):
         check_replaceable(path, overwrite, kind)
-        partial = Partial(path, folder=True, kind=kind)
-        try:
-            yield partial.make()
-            partial.commit()
-        except BaseException as e:
-            partial.discard()
-            failed = _failed(e, path, partial)
-            if failed is not None:
-                raise failed from e
-            raise
+        with replaced_via_partial(path, kind, folder=True) as partial:
+            yield partial
