@@ -1,6 +1,6 @@
 """`Evaluation`: what `odms-data score` and `odms-data baseline` run, over the ground-truth stores
-of some data folders (ground_truth.py): score a predictions file, or run the VOS-DE baseline
-over stores named by path or by split."""
+of some data folders (ground_truth.py): score a predictions file, or run a baseline
+(VOS-DE, Box_LS) over stores named by path or by split."""
 
 from __future__ import annotations
 
@@ -15,27 +15,9 @@ from ..errors import InputError
 from ..protocol import split_order
 from ..store.reader import Store, open_store
 from .baseline_result import BaselineCounts, BaselineResult
-from .box_ls import box_ls
 from .ground_truth import SplitTruth, data_locations, find_stores, load_truth, stores_by_split, verify_truth
 from .predictions import Predictions, read_predictions, write_predictions
 from .scoring import ScoreReport, score
-from .vosde import vosde
-
-
-@dataclass(frozen=True)
-class Baseline:
-    """A baseline method as Evaluation runs it: its name and how it runs over one open store."""
-
-    name: str
-    run: Callable[[Store], BaselineResult]
-
-
-def vosde_baseline(n_obs: int) -> Baseline:
-    return Baseline("VOS-DE", lambda s: vosde(s, n_obs))
-
-
-def box_ls_baseline(n_obs: int, odmd_conversion: bool) -> Baseline:
-    return Baseline("Box_LS", lambda s: box_ls(s, n_obs, odmd_conversion))
 
 
 @dataclass(frozen=True)
@@ -84,15 +66,16 @@ class Evaluation:
         return preds, report
 
     def baseline(
-        self, stores: Sequence[Path], output: str | Path, method: Baseline, *, overwrite: bool = False,
-        progress: Callable[[int], None] = lambda n: None,
+        self, stores: Sequence[Path], output: str | Path, method: Callable[[Store], BaselineResult], *,
+        overwrite: bool = False, progress: Callable[[int], None] = lambda n: None,
     ) -> tuple[int, list[BaselineCounts]]:
-        """Write `method`'s predictions file for `stores` (as `stores()` gives them); the number of
-        predictions and each store's counts. `progress(1)` after each store."""
+        """Write the predictions file of `method` (a baseline over one open store: vosde, box_ls)
+        for `stores` (as `stores()` gives them); the number of predictions and each store's
+        counts. `progress(1)` after each store."""
         rows, counts = [], []
         for p in stores:
             with open_store(str(p)) as s:
-                r = method.run(s)
+                r = method(s)
             progress(1)
             rows += r.rows()
             counts.append(r.counts())
