@@ -139,7 +139,7 @@ def export_hub(
 ) -> list[SplitExport]:
     """Write `stores` (one split each) to `out_dir` as Parquet shards with a dataset card and
     Croissant metadata; returns what each store became."""
-    optional("pyarrow", "odms-data export")
+    optional("pyarrow", "the Hub export")
     if examples_per_file < 1:
         raise InputError(f"examples per file must be at least 1, got {examples_per_file}")
     target = Path(out_dir)
