@@ -9,13 +9,11 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
 from ..errors import InputError
 from ..protocol import split_order
 from ..store.reader import Store, open_store
 from .baseline_result import BaselineCounts, BaselineResult
-from .ground_truth import SplitTruth, data_locations, find_stores, load_truth, stores_by_split, verify_truth
+from .ground_truth import data_locations, find_stores, load_truth, stores_by_split, verify_truth
 from .predictions import Predictions, read_predictions, write_predictions
 from .scoring import ScoreReport, score
 
@@ -62,7 +60,7 @@ class Evaluation:
         report = score(preds, truths, allow_partial=allow_partial)
         if verify and not report.partial:
             for split in sorted(report.digests):
-                _verify(truths[split], progress)
+                verify_truth(truths[split], progress)
         return preds, report
 
     def baseline(
@@ -82,17 +80,3 @@ class Evaluation:
         write_predictions(output, rows, overwrite=overwrite)
         return len(rows), counts
 
-
-def _verify(truth: SplitTruth, progress: Callable[[str, int, int], None] | None) -> None:
-    """verify_truth for one store, reporting the frames read."""
-    with open_store(truth.path) as s:
-        total = s.n_frames
-    done = 0
-
-    def visit(start: int, block: np.ndarray) -> None:
-        nonlocal done
-        done += len(block)
-        if progress:
-            progress(truth.split, done, total)
-
-    verify_truth(truth, visit)
