@@ -9,7 +9,8 @@ Run by hand: `python benchmarks/import.py [--archive ../shared/data/odms-v1.tar.
 - Random access: reading whole examples with `Store.example` against `cv2.imread` of the same
   PNGs (thresholded to the same bool masks), the same random examples, both warm.
 
-Writes benchmarks/results/import.json (results_json.py): the figures, the machine, date and commit.
+Writes benchmarks/results/import.json (_results.py): the random-access rows against the decode
+baseline, and the import and size figures.
 """
 
 from __future__ import annotations
@@ -27,9 +28,9 @@ import time
 from pathlib import Path
 from typing import Any
 
+import _results
 import cv2
 import numpy as np
-from results_json import machine, save
 
 from odms_data.importers.release import scan_split
 from odms_data.protocol import OFFICIAL_SPLITS as SPLITS
@@ -93,10 +94,10 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--sample", type=int, default=3000, help="PNGs decoded for the baseline")
     ap.add_argument("--examples", type=int, default=100, help="random examples per split")
+    _results.add_options(ap)
     a = ap.parse_args()
     if not a.archive.is_file():
         raise SystemExit(f"archive not found: {a.archive}")
-    before = machine()
     figures: dict[str, Any] = {"workers": a.workers}
     tmp = Path(tempfile.mkdtemp())
     try:
@@ -134,12 +135,15 @@ def main() -> None:
               f"{total / len(pngs):.0f} B/mask; PNGs {png_bytes / 1e6:.0f} MB "
               f"({png_bytes / total:.1f} x), archive {a.archive.stat().st_size / 1e6:.0f} MB")
         print(f"random access, median ms per example over {a.examples} random examples (wall / CPU):")
-        access = figures["random_access_ms"] = {}
+        rows = []
         for split, w_store, c_store, w_png, c_png in random_access(data, stores, a.examples):
-            access[split] = {"store_wall": w_store, "store_cpu": c_store, "png_wall": w_png, "png_cpu": c_png}
+            rows.append({"split": split, "store wall ms": w_store, "store CPU ms": c_store,
+                         "cv2.imread wall ms": w_png, "cv2.imread CPU ms": c_png})
             print(f"  {split:13} store {w_store:6.2f} / {c_store:6.2f}   cv2.imread {w_png:7.2f} / "
                   f"{c_png:7.2f}   {w_png / w_store:5.1f} x / {c_png / c_store:5.1f} x faster")
-        print(f"wrote {save('import', figures, before)}")
+        _results.save(a, "Importing the official release; random access per example",
+                      {"what": "cv2.imread of every PNG of the release (decoding alone)", "value": decode_cpu,
+                       "unit": "CPU s"}, rows, figures)
     finally:
         shutil.rmtree(tmp)
 

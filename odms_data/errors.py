@@ -5,11 +5,14 @@ class OdmsError(Exception):
     """Base class: a problem with the user's input or data, reported without a traceback.
 
     The message says what is wrong; `fix`, when there is one, names the remedy (e.g. "overwrite")
-    for a front end to spell with its own options (the command line's: cli/fixes.py)."""
+    for a front end to spell with its own options (the command line's: cli/fixes.py). `option`,
+    when there is one, is the library's name of the input the message starts with (e.g. "classes"),
+    which a front end may write as it names that input (the command line: its flag)."""
 
-    def __init__(self, *args: object, fix: str = "") -> None:
+    def __init__(self, *args: object, fix: str = "", option: str = "") -> None:
         super().__init__(*args)
         self.fix = fix
+        self.option = option
 
 
 class InputError(OdmsError):

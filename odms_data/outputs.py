@@ -84,31 +84,34 @@ def check_replaceable(
 ) -> None:
     """Refuse an output path that exists (unless `overwrite`), or that `kind` says odms-data does
     not replace, or whose name does not end with one of `suffixes` (when given: a CSV named
-    x.zarr would pass for a store). `option` names the command-line option that gave the path."""
+    x.zarr would pass for a store). `option`, the name of the input that gave the path, starts the
+    message and is the error's `option` (errors.OdmsError)."""
     p = Path(path)
 
     def foreign() -> str | None:
         return "is a symbolic link" if kind is not FILE and p.is_symlink() else kind.foreign(p)
 
     refuse_existing(f"{option} {path}" if option else str(path), p.exists() or p.is_symlink(), overwrite,
-                    foreign, kind)
+                    foreign, kind, option)
     if suffixes and p.suffix.lower() not in suffixes:
-        raise InputError(f"{option + ' ' if option else ''}{path}: name the file *{' or *'.join(suffixes)}")
+        raise InputError(f"{option + ' ' if option else ''}{path}: name the file *{' or *'.join(suffixes)}",
+                         option=option)
 
 
 def refuse_existing(where: str, exists: bool, overwrite: bool, foreign: Callable[[], str | None],
-                    kind: Kind) -> None:
+                    kind: Kind, option: str = "") -> None:
     """The rule itself, for a local path or a URL: `foreign()` says what makes what is there
-    something odms-data does not replace (None: it may be replaced with `overwrite`)."""
+    something odms-data does not replace (None: it may be replaced with `overwrite`); `option`
+    names the input `where` starts with, if any."""
     if not exists:
         return
     what = foreign()
     if what and kind is FILE:  # a folder where a file goes: no overwriting would help
-        raise kind.exists_error(f"{where}: {what}")
+        raise kind.exists_error(f"{where}: {what}", option=option)
     if not overwrite:
-        raise kind.exists_error(f"{where}: already exists", fix="overwrite")
+        raise kind.exists_error(f"{where}: already exists", fix="overwrite", option=option)
     if what:
-        raise kind.exists_error(f"{where}: {what}", fix="overwrite-ours")
+        raise kind.exists_error(f"{where}: {what}", fix="overwrite-ours", option=option)
 
 
 def _make_parents(path: Path) -> list[Path]:
@@ -326,12 +329,12 @@ def atomic_file(path: str | os.PathLike, *, overwrite: bool = False, option: str
 
 
 @contextmanager
-def replaced_via_partial(path: str | os.PathLike) -> Iterator[Path]:
+def replaced_via_partial(path: str | os.PathLike, kind: Kind = FILE, folder: bool = False) -> Iterator[Path]:
     """`atomic_file` without the lock and the existence check, for a file that its owner
     replaces as it goes (a training run's checkpoints, under the run's lock): yields the path to
     write, flushed and renamed onto `path` when the block ends normally, removed (and a full
     disk one line naming `path`) when it does not."""
-    partial = Partial(path, folder=False)
+    partial = Partial(path, folder=folder, kind=kind)
     try:
         yield partial.make()
         partial.commit()
@@ -360,13 +363,5 @@ def atomic_folder(path: str | os.PathLike, kind: Kind, *, overwrite: bool = Fals
     onto `path` (replacing what was there, if `kind` allows it) when the block ends normally."""
     with output_lock(path, kind):
         check_replaceable(path, overwrite, kind)
-        partial = Partial(path, folder=True, kind=kind)
-        try:
-            yield partial.make()
-            partial.commit()
-        except BaseException as e:
-            partial.discard()
-            failed = _failed(e, path, partial)
-            if failed is not None:
-                raise failed from e
-            raise
+        with replaced_via_partial(path, kind, folder=True) as partial:
+            yield partial

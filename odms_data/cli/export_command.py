@@ -5,9 +5,8 @@ from __future__ import annotations
 import click
 
 from ..extras import optional
-from ..store.reader import open_store
 from . import echo_json, echo_text
-from .progress import progress
+from .progress import Bars
 
 
 @click.command()
@@ -35,13 +34,9 @@ def export(stores, output, name, licence, examples_per_file, overwrite, as_json)
     optional("pyarrow", "odms-data export")  # before the stores are read
     from ..publish.hub_export import export_hub
 
-    total = 0
-    for path in stores:
-        with open_store(path) as s:
-            total += s.n_examples
-    with progress(total, f"exporting to {output}") as update:
+    with Bars("exporting to {}") as bars:
         exported = export_hub(stores, output, name=name, licence=licence, examples_per_file=examples_per_file,
-                              overwrite=overwrite, progress=update)
+                              overwrite=overwrite, progress=bars)
     if as_json:
         echo_json({"output": output, "splits": [
             {"split": e.split, "examples": e.examples, "files": e.files, "bytes": e.bytes} for e in exported

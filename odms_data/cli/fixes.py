@@ -1,5 +1,5 @@
-"""How the command line fixes what a library error names: each `OdmsError.fix` spelled with the
-options of the commands."""
+"""How the command line says what a library error names: each `OdmsError.fix` spelled with the
+options of the commands, and each `OdmsError.option` written as its flag."""
 
 from __future__ import annotations
 
@@ -24,10 +24,29 @@ FIXES = {
                          "camera moves towards the objects, --forward may have the wrong sign",
     "data": f"give --data DIR or set {ENV_VAR}; default {DEFAULT_DATA}",
     "no-stores": f"give --data DIR or set {ENV_VAR} (see `odms-data generate` and `odms-data import`)",
+    "licence": "give --license (the Hub's licence id, e.g. cc-by-4.0, or other)",
+    "matrix-order-row-major": "if the numbers are row-major, say --matrix-order row-major",
+    "matrix-order-column-major": "if the numbers are column-major, say --matrix-order column-major",
+}
+
+FLAGS = {  # the library's name of an input -> the option that gives it
+    "output": "-o",
+    "plot": "--plot",
+    "entry": "--entry",
+    "classes": "--classes",
+    "frames": "--frames",
+    "move": "--move",
+    "d1": "--d1-range",
 }
 
 
 def with_fix(e: BaseException) -> str:
-    """The error's message, and how to fix it with the command line's options when it names a fix."""
-    fix = FIXES.get(getattr(e, "fix", "") if isinstance(e, OdmsError) else "")
-    return f"{e}; {fix}" if fix else str(e)
+    """The error's message, the input it starts with written as its flag, and how to fix it with
+    the command line's options when it names a fix."""
+    text = str(e)
+    if not isinstance(e, OdmsError):
+        return text
+    if e.option in FLAGS and text.startswith(e.option):
+        text = FLAGS[e.option] + text[len(e.option):]
+    fix = FIXES.get(e.fix)
+    return f"{text}; {fix}" if fix else text

@@ -63,11 +63,13 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
         raise InputError(f"--plot and --entry both name {plot}; give two files")
     if plot:
         from ..evaluation.error_plots import plot_format
+        from ..extras import pyplot
 
-        check_replaceable(plot, overwrite, option="--plot")
+        pyplot("odms-data score --plot")  # matplotlib is there, said with the command's name
+        check_replaceable(plot, overwrite, option="plot")
         plot_format(plot)  # before scoring: matplotlib is there and knows the suffix
     if entry:
-        check_replaceable(entry, overwrite, option="--entry", suffixes=(".json",))
+        check_replaceable(entry, overwrite, option="entry", suffixes=(".json",))
     with Bars("verifying {}") as bars:  # the digests an entry records, checked first
         preds, report = Evaluation(data).score(predictions, allow_partial=allow_partial, verify=bool(entry),
                                                progress=bars)
@@ -86,7 +88,7 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
         e = entry_from_report(report, name, citation=citation, link=link, n_obs=n_obs,
                               predictions_sha256=preds.sha256)
         write_text(entry, json.dumps(e.to_json(), indent=2, ensure_ascii=False, allow_nan=False) + "\n",
-                   overwrite=overwrite, option="--entry")
+                   overwrite=overwrite, option="entry")
         click.echo(f"wrote {entry}", err=True)
 
 
@@ -116,13 +118,14 @@ def vosde(stores, data, n_obs, output, overwrite, as_json):
       odms-data baseline vosde robot-test driving-test --n-obs 5 -o vosde5.csv
       odms-data baseline vosde sim-val.zarr -o sim.csv && odms-data score sim.csv --data sim-val.zarr
     """
-    from ..evaluation.evaluate import Evaluation, vosde_baseline
+    from ..evaluation.evaluate import Evaluation
+    from ..evaluation.vosde import vosde
 
-    check_replaceable(output, overwrite, option="-o", suffixes=(".csv",))
+    check_replaceable(output, overwrite, option="output", suffixes=(".csv",))
     evaluation = Evaluation(data)
     paths = evaluation.stores(stores)
     with progress(len(paths), "VOS-DE (stores)") as update:
-        n_rows, counts = evaluation.baseline(paths, output, vosde_baseline(n_obs), overwrite=overwrite,
+        n_rows, counts = evaluation.baseline(paths, output, lambda s: vosde(s, n_obs), overwrite=overwrite,
                                              progress=update)
     if as_json:
         echo_json({"output": output, "n_obs": n_obs, "predictions": n_rows,
@@ -160,13 +163,14 @@ def box_ls(stores, data, n_obs, odmd_conversion, output, overwrite, as_json):
       odms-data baseline box-ls robot-test --odmd-conversion -o box_ls_odmd.csv
       odms-data baseline box-ls sim-val.zarr -o sim.csv && odms-data score sim.csv --data sim-val.zarr
     """
-    from ..evaluation.evaluate import Evaluation, box_ls_baseline
+    from ..evaluation.box_ls import box_ls as box_ls_of
+    from ..evaluation.evaluate import Evaluation
 
-    check_replaceable(output, overwrite, option="-o", suffixes=(".csv",))
+    check_replaceable(output, overwrite, option="output", suffixes=(".csv",))
     evaluation = Evaluation(data)
     paths = evaluation.stores(stores)
     with progress(len(paths), "Box_LS (stores)") as update:
-        n_rows, counts = evaluation.baseline(paths, output, box_ls_baseline(n_obs, odmd_conversion),
+        n_rows, counts = evaluation.baseline(paths, output, lambda s: box_ls_of(s, n_obs, odmd_conversion),
                                              overwrite=overwrite, progress=update)
     if as_json:
         echo_json({"output": output, "n_obs": n_obs, "odmd_conversion": odmd_conversion,

@@ -8,7 +8,7 @@ import numpy as np
 from ..outputs import check_replaceable
 from ..store.reader import open_store
 from . import echo_json, echo_text
-from .progress import progress
+from .progress import Bars
 
 
 @click.command()
@@ -23,16 +23,10 @@ def validate(store, as_json):
     Example:
       odms-data validate sim-val.zarr
     """
-    from ..errors import OdmsError
     from ..store.validate import validate as validate_store
 
-    try:
-        with open_store(store) as s:
-            frames = s.n_frames
-    except OdmsError:
-        frames = 0  # the report says what is wrong; no masks will be checked
-    with progress(frames, f"validating {store}") as update:
-        report = validate_store(store, update)
+    with Bars("validating {}") as bars:
+        report = validate_store(store, bars)
     if as_json:
         echo_json({"path": report.path, "ok": report.ok, "problems": report.problems,
                    "warnings": report.warnings, "digest": report.digest})
@@ -109,10 +103,8 @@ def convert(src, dst, fmt, overwrite, as_json):
     """
     from ..store.convert import convert as convert_store
 
-    with open_store(src) as s:
-        total = s.n_frames
-    with progress(total, f"converting to {dst}") as update:
-        digest = convert_store(src, dst, fmt, overwrite=overwrite, progress=update)
+    with Bars("converting to {}") as bars:
+        digest = convert_store(src, dst, fmt, overwrite=overwrite, progress=bars)
     if as_json:
         echo_json({"source": src, "output": dst, "digest": digest})
         return
@@ -137,7 +129,7 @@ def show(store, example_id, output, crop, overwrite):
     """
     from ..publish.contact_sheet import contact_sheet, image_format, save_image
 
-    check_replaceable(output, overwrite, option="-o")
+    check_replaceable(output, overwrite, option="output")
     image_format(output)
     with open_store(store) as s:
         sheet = contact_sheet(s.example(example_id), crop=crop)

@@ -23,31 +23,16 @@ far-to-near boxes. On the official test sets that gives the published Box_LS fig
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from ..errors import InputError
 from ..protocol import evenly_spaced
 from ..store.boxes import frame_boxes
 from ..store.reader import Store
+from .baseline_result import BaselineResult
 from .vosde import observation_columns
 
 DEFAULT_N_OBS = 10
-
-
-@dataclass
-class BoxLsResult:
-    """Box_LS estimates of one store's examples, in store order."""
-
-    split: str
-    example_ids: list[str]
-    d1: np.ndarray  # (E,) estimated depth at the closest observation, m; 0 where unsolvable
-    unsolvable: np.ndarray  # (E,) bool, A^T A singular
-    missing: np.ndarray  # (E,) bool, a missing detection (zero-width box) among the used observations
-
-    def rows(self) -> list[tuple[str, str, float]]:
-        return [(self.split, e, float(d)) for e, d in zip(self.example_ids, self.d1, strict=True)]
 
 
 def fill_missing(boxes: np.ndarray, prefer_later: bool) -> np.ndarray:
@@ -109,10 +94,12 @@ def chosen_frames(store: Store, n_obs: int, odmd_conversion: bool) -> list[np.nd
     return out
 
 
-def box_ls(store: Store, n_obs: int = DEFAULT_N_OBS, odmd_conversion: bool = False) -> BoxLsResult:
-    """Box_LS estimates for every example of `store`, from the boxes of its masks."""
+def box_ls(store: Store, n_obs: int = DEFAULT_N_OBS, odmd_conversion: bool = False) -> BaselineResult:
+    """Box_LS estimates for every example of `store` (d1 at the closest observation), from the boxes
+    of its masks; it flags examples with a missing detection (a zero-width box) among the used
+    observations."""
     if n_obs < 2:
-        raise InputError(f"--n-obs must be at least 2, got {n_obs}")
+        raise InputError(f"n_obs must be at least 2, got {n_obs}")
     frames = chosen_frames(store, n_obs, odmd_conversion)
     used = np.unique(np.concatenate(frames)) if frames else np.zeros(0, np.int64)
     boxes_of = np.zeros((store.n_frames, 4))
@@ -133,4 +120,4 @@ def box_ls(store: Store, n_obs: int = DEFAULT_N_OBS, odmd_conversion: bool = Fal
             move = z[f[:, :1]] - z[f]
         d1[rows], unsolvable[rows] = solve(fill_missing(boxes, prefer_later=not odmd_conversion), move)
     d1[unsolvable] = 0.0
-    return BoxLsResult(store.attrs.split, store.example_ids, d1, unsolvable, missing)
+    return BaselineResult(store.attrs.split, store.example_ids, d1, unsolvable, "missing_detections", missing)

@@ -1,4 +1,4 @@
-"""`odms-data score --plot`: percent error against true depth, one panel per split."""
+"""The error plot (`odms-data score --plot`): percent error against true depth, one panel per split."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ from ..extras import pyplot
 from ..outputs import atomic_file
 from .scoring import ScoreReport
 
+NEEDED_BY = "the error plot"  # what needs matplotlib, in its error
 LINEAR_BELOW = 10  # percent: the y axis is symlog, linear up to here so that 0 shows
 TICKS = [0, 2, 5] + [m * 10**k for k in range(1, 7) for m in (1, 2, 5)]  # labelled percent errors
 
@@ -19,15 +20,15 @@ TICKS = [0, 2, 5] + [m * 10**k for k in range(1, 7) for m in (1, 2, 5)]  # label
 def plot_format(path: str) -> str:
     """The file format matplotlib writes for `path`'s suffix; InputError when it has none it knows
     (matplotlib would otherwise add `.png` to the name)."""
-    pyplot("odms-data score --plot")
+    pyplot(NEEDED_BY)
     from matplotlib.backend_bases import FigureCanvasBase
 
     known = FigureCanvasBase.get_supported_filetypes()
     suffix = Path(path).suffix.lower().lstrip(".")
     if suffix not in known:
         what = f"suffix .{suffix} is not an image format matplotlib writes" if suffix else "has no suffix"
-        raise InputError(f"--plot {path}: {what}; name it e.g. errors.png "
-                         f"({', '.join('.' + k for k in sorted(known))})")
+        raise InputError(f"plot {path}: {what}; name it e.g. errors.png "
+                         f"({', '.join('.' + k for k in sorted(known))})", option="plot")
     return suffix
 
 
@@ -35,7 +36,7 @@ def plot_errors(report: ScoreReport, path: str, *, overwrite: bool = False) -> N
     """Scatter of each example's percent error against its true depth d1, with the binned median,
     written to `path` (format from its suffix) as every output is (outputs.atomic_file)."""
     fmt = plot_format(path)
-    plt = pyplot("odms-data score --plot")
+    plt = pyplot(NEEDED_BY)
     from matplotlib import ticker
 
     splits = [s for s in report.scores if s.split in report.errors]
@@ -63,6 +64,6 @@ def plot_errors(report: ScoreReport, path: str, *, overwrite: bool = False) -> N
     title = f"{report.predictions}" + ("  (PARTIAL)" if report.partial else "")
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
-    with atomic_file(path, overwrite=overwrite, option="--plot") as partial:
+    with atomic_file(path, overwrite=overwrite, option="plot") as partial:
         fig.savefig(partial, dpi=110, format=fmt)
     plt.close(fig)

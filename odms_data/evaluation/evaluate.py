@@ -1,6 +1,6 @@
 """`Evaluation`: what `odms-data score` and `odms-data baseline` run, over the ground-truth stores
-of some data folders (ground_truth.py): score a predictions file, or run the VOS-DE baseline
-over stores named by path or by split."""
+of some data folders (ground_truth.py): score a predictions file, or run a baseline
+(VOS-DE, Box_LS) over stores named by path or by split."""
 
 from __future__ import annotations
 
@@ -8,62 +8,14 @@ import difflib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
-
-import numpy as np
 
 from ..errors import InputError
 from ..protocol import split_order
 from ..store.reader import Store, open_store
-from .box_ls import box_ls
-from .ground_truth import SplitTruth, data_locations, find_stores, load_truth, stores_by_split, verify_truth
+from .baseline_result import BaselineCounts, BaselineResult
+from .ground_truth import data_locations, find_stores, load_truth, stores_by_split, verify_truth
 from .predictions import Predictions, read_predictions, write_predictions
 from .scoring import ScoreReport, score
-from .vosde import vosde
-
-
-@dataclass(frozen=True)
-class Baseline:
-    """A baseline method as Evaluation runs it: how it runs over one open store (a result with
-    `split`, `d1`, `unsolvable` and `rows()`), and the examples it counts besides the unsolvable
-    ones: their name in the counts (`flag`) and where its result marks them (`flagged`)."""
-
-    name: str
-    run: Callable[[Store], Any]
-    flag: str
-    flagged: Callable[[Any], np.ndarray]
-
-
-def vosde_baseline(n_obs: int) -> Baseline:
-    """VOS-DE: it also counts the examples with an empty mask among the used observations."""
-    return Baseline("VOS-DE", lambda s: vosde(s, n_obs), "empty_masks", lambda r: r.empty_masks)
-
-
-def box_ls_baseline(n_obs: int, odmd_conversion: bool) -> Baseline:
-    """Box_LS: it also counts the examples with a missing detection among the used observations."""
-    return Baseline("Box_LS", lambda s: box_ls(s, n_obs, odmd_conversion), "missing_detections",
-                    lambda r: r.missing)
-
-
-@dataclass(frozen=True)
-class BaselineCounts:
-    """One store's baseline run: its examples, those unsolvable (predicted 0) and those the method
-    flags (`flag`: empty masks for VOS-DE, missing detections for Box_LS)."""
-
-    split: str
-    examples: int
-    unsolvable: int
-    flag: str
-    flagged: int
-
-    def __post_init__(self) -> None:
-        if not 0 <= max(self.unsolvable, self.flagged) <= self.examples:
-            raise InputError(f"split {self.split}: counts must lie between 0 and its {self.examples} "
-                             "examples")
-
-    def to_json(self) -> dict[str, Any]:
-        return {"split": self.split, "examples": self.examples, "unsolvable": self.unsolvable,
-                self.flag: self.flagged}
 
 
 @dataclass(frozen=True)
@@ -108,37 +60,23 @@ class Evaluation:
         report = score(preds, truths, allow_partial=allow_partial)
         if verify and not report.partial:
             for split in sorted(report.digests):
-                _verify(truths[split], progress)
+                verify_truth(truths[split], progress)
         return preds, report
 
     def baseline(
-        self, stores: Sequence[Path], output: str | Path, method: Baseline, *, overwrite: bool = False,
-        progress: Callable[[int], None] = lambda n: None,
+        self, stores: Sequence[Path], output: str | Path, method: Callable[[Store], BaselineResult], *,
+        overwrite: bool = False, progress: Callable[[int], None] = lambda n: None,
     ) -> tuple[int, list[BaselineCounts]]:
-        """Write `method`'s predictions file for `stores` (as `stores()` gives them); the number of
-        predictions and each store's counts. `progress(1)` after each store."""
+        """Write the predictions file of `method` (a baseline over one open store: vosde, box_ls)
+        for `stores` (as `stores()` gives them); the number of predictions and each store's
+        counts. `progress(1)` after each store."""
         rows, counts = [], []
         for p in stores:
             with open_store(str(p)) as s:
-                r = method.run(s)
+                r = method(s)
             progress(1)
             rows += r.rows()
-            counts.append(BaselineCounts(r.split, len(r.d1), int(r.unsolvable.sum()), method.flag,
-                                         int(method.flagged(r).sum())))
+            counts.append(r.counts())
         write_predictions(output, rows, overwrite=overwrite)
         return len(rows), counts
 
-
-def _verify(truth: SplitTruth, progress: Callable[[str, int, int], None] | None) -> None:
-    """verify_truth for one store, reporting the frames read."""
-    with open_store(truth.path) as s:
-        total = s.n_frames
-    done = 0
-
-    def visit(start: int, block: np.ndarray) -> None:
-        nonlocal done
-        done += len(block)
-        if progress:
-            progress(truth.split, done, total)
-
-    verify_truth(truth, visit)

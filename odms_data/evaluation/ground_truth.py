@@ -101,11 +101,16 @@ def load_truth(path: Path) -> SplitTruth:
         return SplitTruth(s.attrs.split, s.attrs.domain, str(path), s.attrs.digest, ids, d1)
 
 
-def verify_truth(truth: SplitTruth, visit: Callable[[int, np.ndarray], None] | None = None) -> None:
+def verify_truth(truth: SplitTruth, progress: Callable[[str, int, int], None] | None = None) -> None:
     """StoreError or DigestMismatchError unless the store of `truth` holds the content its digest
-    says (every mask read; `visit(start, block)` follows them) and, for a named split, that
-    digest is its manifest's; also unless the labels scored are the ones digested."""
+    says (every mask read; `progress(split, frames done, frames total)` follows them) and, for a
+    named split, that digest is its manifest's; also unless the labels scored are the ones digested."""
     with open_store(truth.path) as s:
+
+        def visit(start: int, block: np.ndarray) -> None:
+            if progress:
+                progress(truth.split, start + len(block), s.n_frames)
+
         digest = check_recorded_digest(s, truth.path, visit)
         if digest != truth.digest or not np.array_equal(s.d1, truth.d1, equal_nan=True):
             raise StoreError(f"{truth.path}: changed while it was being scored; score it again")

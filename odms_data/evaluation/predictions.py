@@ -354,6 +354,6 @@ def write_predictions(
         first = frame[bad].iloc[0]
         raise InputError(f"{int(bad.sum())} prediction(s) are NaN or infinite, first for "
                          f"{first['example_id']} of split {first['split']}; nothing was written to {path}")
-    with atomic_file(path, overwrite=overwrite, option="-o") as partial:
+    with atomic_file(path, overwrite=overwrite, option="output") as partial:
         frame.to_csv(partial, index=False, lineterminator="\n")
     return len(frame)

@@ -24,29 +24,14 @@ observations and are not reproduced by this linspace rule.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from ..errors import InputError
 from ..protocol import evenly_spaced
 from ..store.reader import Store
+from .baseline_result import BaselineResult
 
 DEFAULT_N_OBS = 10
-
-
-@dataclass
-class VosdeResult:
-    """VOS-DE estimates of one store's examples, in store order."""
-
-    split: str
-    example_ids: list[str]
-    d1: np.ndarray  # (E,) estimated depth at the first observation, m; 0 where unsolvable
-    unsolvable: np.ndarray  # (E,) bool, A^T A singular
-    empty_masks: np.ndarray  # (E,) bool, an empty mask among the used observations
-
-    def rows(self) -> list[tuple[str, str, float]]:
-        return [(self.split, e, float(d)) for e, d in zip(self.example_ids, self.d1, strict=True)]
 
 
 def observation_columns(n: int, n_obs: int) -> np.ndarray:
@@ -75,8 +60,9 @@ def solve(sqrt_area: np.ndarray, dz: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return d1, bad
 
 
-def vosde(store: Store, n_obs: int = DEFAULT_N_OBS) -> VosdeResult:
-    """VOS-DE estimates for every example of `store` from its stored per-frame statistics."""
+def vosde(store: Store, n_obs: int = DEFAULT_N_OBS) -> BaselineResult:
+    """VOS-DE estimates for every example of `store` (d1 at the first observation) from its stored
+    per-frame statistics; it flags examples with an empty mask among the used observations."""
     if n_obs < 2:
         raise InputError(f"n_obs must be at least 2 (two unknowns), got {n_obs}")
     fi, counts = store.frame_index, store.n_obs
@@ -91,4 +77,4 @@ def vosde(store: Store, n_obs: int = DEFAULT_N_OBS) -> VosdeResult:
         d1[rows], unsolvable[rows] = solve(sqrt_area, dz)
         empty[rows] = (largest[frames] == 0).any(axis=1)
     d1[unsolvable] = 0.0
-    return VosdeResult(store.attrs.split, store.example_ids, d1, unsolvable, empty)
+    return BaselineResult(store.attrs.split, store.example_ids, d1, unsolvable, "empty_masks", empty)

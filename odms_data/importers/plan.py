@@ -66,11 +66,11 @@ class Skips:
     skip_bad: bool
     oddities: list[Oddity] = field(default_factory=list)
 
-    def add(self, subject: str, message: str) -> None:
-        """Leave out `subject` for `message`, or raise InputError(message) without skip_bad."""
+    def add(self, subject: str, problem: str | InputError) -> None:
+        """Leave out `subject` for `problem`, or raise it (an InputError) without skip_bad."""
         if not self.skip_bad:
-            raise InputError(message)
-        self.oddities.append(Oddity(SKIPPED, subject, message))
+            raise problem if isinstance(problem, InputError) else InputError(problem)
+        self.oddities.append(Oddity(SKIPPED, subject, str(problem)))
 
 
 def store_name(name: str | None, out: Path, fallback: str, kind: str) -> str:

@@ -126,7 +126,7 @@ def read_positions(
         try:
             path, zi, di = rows.read(row, i + 2, f"{positions} line {i + 2}")
         except InputError as e:
-            skips.add(f"line {i + 2}", str(e))
+            skips.add(f"line {i + 2}", e)
             continue
         files.append(path)
         z.append(zi)

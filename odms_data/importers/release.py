@@ -135,7 +135,7 @@ def scan_split(data_dir: Path, split: str, skip_bad: bool) -> tuple[list[Folder]
         try:
             folders.append(_scan_folder(d, f"{fold}/{domain}/{d.name}", split, domain))
         except InputError as e:
-            skips.add(f"{split}/{d.name}", str(e))
+            skips.add(f"{split}/{d.name}", e)
     return folders, skips.oddities
 
 

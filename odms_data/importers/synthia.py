@@ -119,8 +119,8 @@ def read_pose(path: Path, convention: PoseConvention) -> Pose:
     M = values.reshape(4, 4, order="F" if convention.order == "column-major" else "C")
     if not np.allclose(M[3], (0, 0, 0, 1), atol=1e-6):
         other = "row-major" if convention.order == "column-major" else "column-major"
-        raise InputError(f"{path}: the matrix's last row is {' '.join(f'{v:g}' for v in M[3])}, not 0 0 0 1 "
-                         f"(if the numbers are {other}, say --matrix-order {other})")
+        raise InputError(f"{path}: the matrix's last row is {' '.join(f'{v:g}' for v in M[3])}, not 0 0 0 1",
+                         fix=f"matrix-order-{other}")
     R = M[:3, :3]
     if not np.allclose(R.T @ R, np.eye(3), atol=1e-4):
         raise InputError(f"{path}: the rotation part is not orthonormal (not a camera pose)")
@@ -279,7 +279,7 @@ def _find_sequences(seq_dirs: Sequence[str | Path], camera: str, skips: Skips) -
         try:
             seq, skipped = find_sequence(d, camera, skips.skip_bad)
         except InputError as e:
-            skips.add(d.name, str(e))
+            skips.add(d.name, e)
             continue
         if any(s.name == seq.name for s in sequences):
             raise InputError(f"{d}: a second sequence named {seq.name} (their example ids would collide)")
@@ -300,7 +300,7 @@ def _read_poses(
                 poses[seq.name][f] = read_pose(seq.params[f], convention)
             except InputError as e:
                 seq.drop(f)
-                skips.add(f"{seq.name} frame {f}", str(e))
+                skips.add(f"{seq.name} frame {f}", e)
     return poses
 
 

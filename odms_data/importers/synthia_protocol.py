@@ -40,14 +40,14 @@ class Selection:
 
     def check(self) -> None:
         if not self.classes:
-            raise InputError("--classes: give at least one class")
+            raise InputError("classes: give at least one class", option="classes")
         if not self.frames or min(self.frames) < 2:
-            raise InputError("--frames: an example needs at least 2 frames")
+            raise InputError("frames: an example needs at least 2 frames", option="frames")
         if self.stride < 1 or self.min_area < 1 or self.max_gap < 0:
-            raise InputError("--stride and --min-area must be at least 1, --max-gap at least 0")
-        for option, (lo, hi) in (("--move", self.move), ("--d1-range", self.d1)):
+            raise InputError("stride and min_area must be at least 1, max_gap at least 0")
+        for option, (lo, hi) in (("move", self.move), ("d1", self.d1)):
             if not 0 <= lo < hi:
-                raise InputError(f"{option} {lo} {hi}: expected 0 <= MIN < MAX (metres)")
+                raise InputError(f"{option} {lo} {hi}: expected 0 <= MIN < MAX (metres)", option=option)
 
 
 SYNTHIA_POSES = PoseConvention()
@@ -63,6 +63,6 @@ def parse_classes(text: str) -> tuple[int, ...]:
         elif t.isascii() and t.isdigit() and int(t) < MAX_CLASS:
             out.append(int(t))
         else:
-            raise InputError(f"--classes '{t}': not a class; use {', '.join(CLASS_IDS)} or SYNTHIA class ids "
-                             f"(0 to {MAX_CLASS - 1})")
+            raise InputError(f"classes '{t}': not a class; use {', '.join(CLASS_IDS)} or SYNTHIA class ids "
+                             f"(0 to {MAX_CLASS - 1})", option="classes")
     return tuple(dict.fromkeys(out))

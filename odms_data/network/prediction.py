@@ -20,7 +20,7 @@ from ..protocol import split_order
 from . import odn
 from .odn import ODN
 from .run_folder import BEST, LAST, PER_SET, RunFolder, TrainConfig
-from .runtime import outputs_and_depths, pick_device, read_checkpoint, store_batches, store_dataset, to_device
+from .runtime import eval_batches, outputs_and_depths, pick_device, read_checkpoint, store_dataset, to_device
 from .variants import variant
 
 
@@ -60,7 +60,7 @@ def predict_store(
         v = variant(config.model)
         d1 = np.empty(n)
         done = 0
-        for batch in store_batches(dataset, workers, device.type == "cuda"):
+        for batch in eval_batches(dataset, workers, device.type == "cuda"):
             _, d = outputs_and_depths(model, v, to_device(batch, device))
             d1[batch["index"].numpy()] = d.cpu().numpy()
             done += len(batch["index"])
@@ -76,7 +76,7 @@ def predict(
     """Write the predictions file (schemas/PREDICTIONS.md) of the run's `which` checkpoint for every
     example of `stores` ({split: path}); returns (rows, the run's config, {split: the iteration of
     the checkpoint that predicted it})."""
-    check_replaceable(output, overwrite, option="-o", suffixes=(".csv",))  # before the work, and when written
+    check_replaceable(output, overwrite, option="output", suffixes=(".csv",))  # now, and when written
     dev = pick_device(device)
     order = sorted(stores, key=split_order)
     # every checkpoint is loaded before the work, so that a missing one shows at once

@@ -119,12 +119,6 @@ def _splits_of_seed(seed: int) -> list[str]:
     return [m.name for m in manifests if m.generator and m.generator.get("seed") == seed]
 
 
-def _not_a_run(path: Path) -> str | None:
-    if path.exists() and not path.is_dir():
-        return "exists and is not a folder; give a new folder for the run"
-    return None
-
-
 RUN_KIND = Kind("training run", lambda path: None)  # for the lock; RunFolder.check: what may be replaced
 
 
@@ -145,7 +139,7 @@ class RunFolder:
         mine = [s for s in sets if domain_of(s) == domain_of(split)]
         if len(mine) != 1:
             what = "no validation set" if not mine else f"several validation sets ({', '.join(mine)})"
-            raise InputError(f"{self.path}: --checkpoint {PER_SET} needs the best checkpoint of {split}'s "
+            raise InputError(f"{self.path}: checkpoint {PER_SET} needs the best checkpoint of {split}'s "
                              f"own validation set, and the run has {what} of that domain; its per-set "
                              f"checkpoints: {', '.join(sets) or 'none (train again to write them)'}")
         return self.file(best_of(mine[0]))

@@ -57,7 +57,7 @@ def store_dataset(path: str, config: TrainConfig) -> StoreDataset:
 WORKER_ERROR = "in DataLoader worker process"  # how torch says an exception came from a worker
 
 
-def store_batches(dataset: StoreDataset, workers: int, pin: bool) -> Iterator[Batch]:
+def eval_batches(dataset: StoreDataset, workers: int, pin: bool) -> Iterator[Batch]:
     """The store's examples as network inputs, in row order, EVAL_BATCH at a time. A problem a
     worker meets (a damaged chunk) is raised with its own one-line message: torch raises it again
     with the worker's traceback as its message."""

@@ -33,10 +33,10 @@ from .odn import ODN
 from .run_folder import BEST, LAST, RUN_KIND, TRAIN, VAL, AddRow, RunFolder, TrainConfig, best_of
 from .runtime import (
     Batch,
+    eval_batches,
     outputs_and_depths,
     pick_device,
     read_checkpoint,
-    store_batches,
     store_dataset,
     to_device,
 )
@@ -111,7 +111,7 @@ class Validation:
                                      "curves use (train, val); give each split once, none named train or val")
                 if not labelled:
                     raise InputError(f"{path}: no labelled example (every d1 is NaN); it cannot validate")
-                batches = store_batches(dataset, workers, pin=device.type == "cuda")
+                batches = eval_batches(dataset, workers, pin=device.type == "cuda")
                 self.stores[split] = [to_device({k: b[k] for k in keep if k in b}, device) for b in batches]
 
     @torch.inference_mode()

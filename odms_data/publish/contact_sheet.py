@@ -67,23 +67,24 @@ def contact_sheet(example: Example, columns: int = COLUMNS, crop: bool = False) 
     return sheet
 
 
-def image_format(path: str | os.PathLike, option: str = "-o") -> str:
+def image_format(path: str | os.PathLike, option: str = "output") -> str:
     """The format Pillow writes for `path`'s suffix; InputError when it has none Pillow writes."""
     Image.init()
     writable = {ext: fmt for ext, fmt in Image.registered_extensions().items() if fmt in Image.SAVE}
     suffix = Path(path).suffix.lower()
     if suffix not in writable:
         what = f"suffix {suffix} is not an image format Pillow writes" if suffix else "has no suffix"
-        raise InputError(f"{option} {path}: {what}; name it e.g. sheet.png")
+        raise InputError(f"{option} {path}: {what}; name it e.g. sheet.png", option=option)
     return writable[suffix]
 
 
 def save_image(image: Image.Image, path: str | os.PathLike, *, overwrite: bool = False,
-               option: str = "-o") -> None:
+               option: str = "output") -> None:
     """Write `image` to `path` in the format of its suffix, as every output is (outputs.atomic_file)."""
     fmt = image_format(path, option)
     with atomic_file(path, overwrite=overwrite, option=option) as partial:
         try:
             image.save(partial, format=fmt)
         except (ValueError, KeyError) as e:
-            raise InputError(f"{option} {path}: Pillow cannot write this image as {fmt} ({e})") from None
+            raise InputError(f"{option} {path}: Pillow cannot write this image as {fmt} ({e})",
+                             option=option) from None

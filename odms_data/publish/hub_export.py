@@ -32,7 +32,7 @@ from ..store.reader import Store, open_store
 from .hub_metadata import FIELDS, SplitExport, croissant, dataset_card, hub_split, licence_of
 
 ROW_GROUP = 100  # examples per Parquet row group: small groups let the Hub's viewer page quickly
-Progress = Callable[[int], None]  # called with the number of examples just written
+Progress = Callable[[str, int, int], None]  # (output, examples written, examples in all the stores)
 
 
 def _example_rows(store: Store, rows: range) -> dict[str, list]:
@@ -83,7 +83,8 @@ def _schema():
     return pa.schema([(c, arrow(c)) for c in FIELDS])
 
 
-def _write_split(store: Store, folder: Path, examples_per_file: int, progress: Progress) -> SplitExport:
+def _write_split(store: Store, folder: Path, examples_per_file: int,
+                 progress: Callable[[int], None]) -> SplitExport:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
@@ -134,11 +135,11 @@ def export_hub(
     licence: str | None = None,
     examples_per_file: int = 1000,
     overwrite: bool = False,
-    progress: Progress = lambda n: None,
+    progress: Progress = lambda output, done, total: None,
 ) -> list[SplitExport]:
     """Write `stores` (one split each) to `out_dir` as Parquet shards with a dataset card and
     Croissant metadata; returns what each store became."""
-    optional("pyarrow", "odms-data export")
+    optional("pyarrow", "the Hub export")
     if examples_per_file < 1:
         raise InputError(f"examples per file must be at least 1, got {examples_per_file}")
     target = Path(out_dir)
@@ -157,7 +158,14 @@ def export_hub(
         for path, s in zip(stores, opened, strict=True):  # the card publishes each store's digest
             check_recorded_digest(s, path)
         with atomic_folder(target, EXPORT, overwrite=overwrite) as partial:
-            exported = [_write_split(s, partial, examples_per_file, progress) for s in opened]
+            total, done = sum(s.n_examples for s in opened), 0
+
+            def written(n: int) -> None:
+                nonlocal done
+                done += n
+                progress(str(out_dir), done, total)
+
+            exported = [_write_split(s, partial, examples_per_file, written) for s in opened]
             title, attrs = name or target.name, [s.attrs for s in opened]
             (partial / "README.md").write_text(dataset_card(title, attrs, exported, licence))
             hashes = {f: sha256(partial / f) for e in exported for f in e.files}

@@ -74,15 +74,14 @@ def hub_split(split: str) -> str:
 
 def licence_of(stores: Sequence[StoreAttrs]) -> str:
     """The licence of the stores' data when odms-data knows it: the generator's output is MIT like
-    odms-data, the official release is research-only; others (recordings, SYNTHIA) need --license."""
+    odms-data, the official release is research-only; others (recordings, SYNTHIA) need one given."""
     if all(a.domain == "generated" for a in stores):
         return "mit"
     if all(a.domain == "generated" or official_name(a.split, a.domain) for a in stores):
         return "other"
     unknown = next(a.split for a in stores
                    if a.domain != "generated" and not official_name(a.split, a.domain))
-    raise InputError(f"the licence of split {unknown} is not known to odms-data; give --license "
-                     "(the Hub's licence id, e.g. cc-by-4.0, or other)")
+    raise InputError(f"the licence of split {unknown} is not known to odms-data", fix="licence")
 
 
 def _licence_fields(licence: str) -> dict[str, str]:

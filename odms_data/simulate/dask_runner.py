@@ -44,7 +44,7 @@ def _environment() -> dict[str, Any]:
 
 def connect(address: str):
     """A `distributed.Client` for the scheduler at `address`, with at least one worker."""
-    Client = optional("distributed", "odms-data generate --scheduler").Client
+    Client = optional("distributed", "generating on a Dask cluster").Client
     try:
         client = Client(address, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
     except (OSError, TimeoutError, ValueError) as e:

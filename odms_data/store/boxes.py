@@ -58,8 +58,3 @@ def frame_boxes(store: Store, frames: np.ndarray) -> np.ndarray:
         rx0, ry0, rx1, ry1 = largest_region_rect(mask)
         rect[i] = (x0 + rx0, y0 + ry0, x0 + rx1, y0 + ry1)
     return box_of_region(rect[:, 0], rect[:, 1], rect[:, 2], rect[:, 3], store.width, store.height)
-
-
-def store_boxes(store: Store) -> np.ndarray:
-    """(F, 4) ODMD boxes of every frame of `store`, in frame-row order."""
-    return frame_boxes(store, np.arange(store.n_frames))

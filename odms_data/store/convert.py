@@ -14,7 +14,7 @@ from .writer import Layout, StoreWriter
 
 def convert(
     src: str, dst: str, fmt: str | None = None, *, overwrite: bool = False,
-    progress: Callable[[int], None] | None = None,
+    progress: Callable[[str, int, int], None] | None = None,
 ) -> str:
     """Copy the store `src` to `dst` (backend from `fmt` or dst's suffix); returns the digest.
 
@@ -38,7 +38,7 @@ def convert(
             def copy(start: int, block: np.ndarray) -> None:
                 w.write_masks(start, block)
                 if progress:
-                    progress(len(block))
+                    progress(str(dst), start + len(block), s.n_frames)
 
             digest = check_recorded_digest(s, src, copy)
             w.commit(s.attrs)

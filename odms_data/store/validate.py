@@ -14,6 +14,7 @@ from .digest import recompute_digest
 from .format import (
     ARRAYS,
     Z_ODDITY,
+    _first,
     attribute_problems,
     d1_problems,
     decode_strings,
@@ -42,9 +43,9 @@ class Report:
         return not self.problems
 
 
-def validate(path: str, progress: Callable[[int], None] | None = None) -> Report:
+def validate(path: str, progress: Callable[[str, int, int], None] | None = None) -> Report:
     """Every problem of the store at `path`, one line each; never raises for a bad store.
-    `progress(k)` is called as each block of k frames' masks has been checked."""
+    `progress(path, frames done, frames total)` is called as each block of masks has been checked."""
     report = Report(str(path))
     try:
         backend = open_backend(str(path), "r")
@@ -79,7 +80,7 @@ def validate(path: str, progress: Callable[[int], None] | None = None) -> Report
     return report
 
 
-def _check_content(store: Store, report: Report, progress: Callable[[int], None] | None) -> None:
+def _check_content(store: Store, report: Report, progress: Callable[[str, int, int], None] | None) -> None:
     """Every rule of format.py over the arrays as stored, then the masks and the digest."""
     P = report.problems
     split = store.attrs.split
@@ -129,7 +130,7 @@ def _check_content(store: Store, report: Report, progress: Callable[[int], None]
     _check_masks(store, report, progress)
 
 
-def _check_masks(store: Store, report: Report, progress: Callable[[int], None] | None) -> None:
+def _check_masks(store: Store, report: Report, progress: Callable[[str, int, int], None] | None) -> None:
     W, pad_bits = store.width, packed_width(store.width) * 8 - store.width
     area, largest, bbox = store.raw("area"), store.raw("largest_area"), store.raw("bbox")
     pad_mask = np.uint8((1 << pad_bits) - 1) if pad_bits else None
@@ -145,7 +146,7 @@ def _check_masks(store: Store, report: Report, progress: Callable[[int], None] |
             if a != area[f] or la != largest[f] or tuple(bbox[f]) != box:
                 wrong_stats.append(f)
         if progress:
-            progress(len(block))
+            progress(report.path, start + len(block), store.n_frames)
 
     try:
         digest, _ = recompute_digest(store, visit)
@@ -182,9 +183,4 @@ def _version_hint(version: int | None, manifest: SplitManifest) -> str:
     if version is None or version == manifest.generator_version:
         return ""
     return (f": the store was made by generator version {version}, the split is version "
-            f"{manifest.generator_version}'s (odms-data generate --split {manifest.name})")
-
-
-def _first(values, k: int = 5) -> str:
-    values = list(values)
-    return ", ".join(str(int(v)) for v in values[:k]) + (", ..." if len(values) > k else "")
+            f"{manifest.generator_version}'s (generate split {manifest.name} again)")

@@ -46,7 +46,7 @@ def test_ideal_boxes_give_the_exact_depth(tmp_path):
     with open_store(path) as s:
         r = box_ls(s)
     assert r.d1 == pytest.approx([1.0], abs=1e-9)
-    assert not r.unsolvable.any() and not r.missing.any()
+    assert not r.unsolvable.any() and not r.flagged.any()
 
 
 def test_missing_detections_take_the_nearest_box_and_none_at_all_is_unsolvable(tmp_path):
@@ -58,7 +58,7 @@ def test_missing_detections_take_the_nearest_box_and_none_at_all_is_unsolvable(t
     path = make_store(tmp_path / "s.zarr", "degenerate", examples)
     with open_store(path) as s:
         r = box_ls(s)
-    assert r.missing.tolist() == [True, True]
+    assert r.flagged.tolist() == [True, True]
     assert r.unsolvable.tolist() == [False, True]
     assert r.d1[1] == 0.0 and 0.5 < r.d1[0] < 1.5
     out = tmp_path / "p.csv"

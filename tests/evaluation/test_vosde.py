@@ -41,7 +41,7 @@ def test_ideal_squares_give_the_exact_depth(tmp_path):
     with open_store(path) as s:
         r = vosde(s)
     assert r.d1 == pytest.approx([1.0], abs=1e-12)
-    assert not r.unsolvable.any() and not r.empty_masks.any()
+    assert not r.unsolvable.any() and not r.flagged.any()
 
 
 def test_estimate_is_relative_to_the_first_observation(tmp_path):
@@ -62,7 +62,7 @@ def test_singular_systems_predict_zero_and_are_counted(tmp_path):
     with open_store(path) as s:
         r = vosde(s)
     assert r.unsolvable.tolist() == [True, True, False]
-    assert r.empty_masks.tolist() == [True, False, True]
+    assert r.flagged.tolist() == [True, False, True]
     assert r.d1[:2].tolist() == [0.0, 0.0] and r.d1[2] != 0.0
     out = tmp_path / "p.csv"
     res = CliRunner().invoke(main, ["baseline", "vosde", path, "-o", str(out)])

@@ -17,6 +17,7 @@ import synthia_scenes as scenes
 from click.testing import CliRunner
 
 from odms_data.cli import main
+from odms_data.cli.fixes import with_fix
 from odms_data.errors import InputError
 from odms_data.evaluation.vosde import vosde
 from odms_data.importers.decoding import Workers
@@ -201,9 +202,11 @@ def test_read_pose_conventions(tmp_path):
     np.testing.assert_allclose(centre, (1, 2, 3))
     np.testing.assert_allclose(forward, axis)
     np.testing.assert_allclose(read_pose(f, PoseConvention(forward="+z"))[1], -axis)
-    last_row = r"000000.txt: the matrix's last row is 1 2 3 1, not 0 0 0 1 .*--matrix-order column-major"
-    with pytest.raises(InputError, match=last_row):
+    last_row = r"000000.txt: the matrix's last row is 1 2 3 1, not 0 0 0 1$"
+    with pytest.raises(InputError, match=last_row) as refused:
         read_pose(f, PoseConvention(order="row-major"))
+    assert with_fix(refused.value).endswith("; if the numbers are column-major, say --matrix-order "
+                                            "column-major")
     f.write_text(numbers(np.linalg.inv(M).ravel(order="C")))
     centre, forward = read_pose(f, PoseConvention(order="row-major", direction="world-to-camera"))
     np.testing.assert_allclose(centre, (1, 2, 3), atol=1e-12)

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 import yaml
 
+from odms_data.cli.fixes import with_fix
 from odms_data.errors import InputError
 from odms_data.publish.hub_export import export_hub, sha256
 from odms_data.publish.hub_metadata import licence_of
@@ -110,8 +111,9 @@ def test_licence_known_for_generated_and_official_data_only():
 
     assert licence_of([attrs("sim-val", "generated")]) == "mit"
     assert licence_of([attrs("robot-val", "robot"), attrs("sim-val", "generated")]) == "other"
-    with pytest.raises(InputError, match="cup.*--license"):
+    with pytest.raises(InputError, match="licence of split cup is not known") as refused:
         licence_of([attrs("cup", "recording")])
+    assert "give --license" in with_fix(refused.value)
 
 
 def test_official_driving_split_round_trips(official_stores, tmp_path):

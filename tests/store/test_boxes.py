@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from _stores import SIZE, make_store
 
-from odms_data.store.boxes import frame_boxes, largest_region_rect, store_boxes
+from odms_data.store.boxes import frame_boxes, largest_region_rect
 from odms_data.store.reader import open_store
 
 
@@ -21,7 +21,7 @@ def _boxes(tmp_path, masks):
     path = make_store(tmp_path / "b.zarr", "boxes", [{"z": list(range(1, len(masks) + 1)), "masks": masks,
                                                        "d1": 1.0}])
     with open_store(path) as s:
-        return store_boxes(s), s
+        return frame_boxes(s, np.arange(s.n_frames)), s
 
 
 def test_box_is_centre_and_size_of_the_inclusive_extremes(tmp_path):
