@@ -5,12 +5,13 @@ Run by hand: `python benchmarks/import.py [--archive ../shared/data/odms-v1.tar.
 - Import: `odms-data import odms` in a subprocess; wall time and CPU time (user + sys of the
   whole process tree). Baseline: `cv2.imread` of a sample of the release's PNGs in one process,
   extrapolated to all of them (decoding alone, nothing written).
+- Scan: listing every split's PNGs confined to their folders (`paths.listed_inside`, which resolves
+  only links), against resolving every PNG's path (`paths.inside` on each, as the scan did).
 - Size: the eight stores (file bytes and disk blocks) against the PNGs and the archive.
 - Random access: reading whole examples with `Store.example` against `cv2.imread` of the same
   PNGs (thresholded to the same bool masks), the same random examples, both warm.
 
-Writes benchmarks/results/import.json (_results.py): the random-access rows against the decode
-baseline, and the import and size figures.
+Writes benchmarks/results/import.json (_results.py): the figures, the machine, date and commit.
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ import cv2
 import numpy as np
 
 from odms_data.importers.release import scan_split
+from odms_data.paths import inside, listed_inside
 from odms_data.protocol import OFFICIAL_SPLITS as SPLITS
 from odms_data.store.reader import open_store
 
@@ -58,6 +60,32 @@ def decode_baseline(pngs: list[Path], sample: int) -> float:
     for p in chosen:
         cv2.imread(str(p), cv2.IMREAD_GRAYSCALE)
     return (time.process_time() - t) / len(chosen)
+
+
+def confine_times(data: Path) -> tuple[float, float]:
+    """CPU seconds to list every release folder's PNGs confined to it: (listed_inside, inside on
+    each path); the faster of two rounds each, alternated, so that neither gains from a cache."""
+    folders = [f for split in SPLITS for f in (data / split.split("-")[1] / split.split("-")[0]).iterdir()
+               if f.is_dir()]
+
+    def png(p: Path) -> bool:
+        return p.suffix.lower() == ".png"
+
+    def each_path() -> None:
+        for f in folders:
+            [inside(f, p.name, str(f)) for p in f.iterdir() if png(p)]
+
+    def listing() -> None:
+        for f in folders:
+            listed_inside(f, png)
+
+    best = {listing: float("inf"), each_path: float("inf")}
+    for _ in range(2):
+        for fn in best:
+            t = time.process_time()
+            fn()
+            best[fn] = min(best[fn], time.process_time() - t)
+    return best[listing], best[each_path]
 
 
 def random_access(data: Path, stores: Path, per_split: int) -> list[tuple[str, float, float, float, float]]:
@@ -116,6 +144,14 @@ def main() -> None:
         print(f"baseline: cv2.imread of all {len(pngs)} PNGs ~ {decode_cpu:.0f} CPU s "
               f"({', '.join(f'{k} {1e3 * v:.2f} ms' for k, v in per_png.items())}); "
               f"load average now {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+        t = time.process_time()
+        for split in SPLITS:
+            scan_split(data, split, False)
+        scan = time.process_time() - t
+        listing, each_path = confine_times(data)
+        figures["scan"] = {"cpu_s": scan, "confine_cpu_s": listing, "confine_each_path_cpu_s": each_path}
+        print(f"scan of every split: {scan:.1f} CPU s; confining the PNGs: {listing:.1f} CPU s, against "
+              f"{each_path:.1f} CPU s resolving every path ({each_path / listing:.1f} x)")
         stores = tmp / "stores"
         cpu0, t = children_cpu(), time.perf_counter()
         subprocess.run([sys.executable, "-m", "odms_data.cli", "import", "odms", str(data), "-o",
@@ -135,15 +171,18 @@ def main() -> None:
               f"{total / len(pngs):.0f} B/mask; PNGs {png_bytes / 1e6:.0f} MB "
               f"({png_bytes / total:.1f} x), archive {a.archive.stat().st_size / 1e6:.0f} MB")
         print(f"random access, median ms per example over {a.examples} random examples (wall / CPU):")
-        rows = []
+        access = figures["random_access_ms"] = {}
         for split, w_store, c_store, w_png, c_png in random_access(data, stores, a.examples):
-            rows.append({"split": split, "store wall ms": w_store, "store CPU ms": c_store,
-                         "cv2.imread wall ms": w_png, "cv2.imread CPU ms": c_png})
+            access[split] = {"store_wall": w_store, "store_cpu": c_store, "png_wall": w_png, "png_cpu": c_png}
             print(f"  {split:13} store {w_store:6.2f} / {c_store:6.2f}   cv2.imread {w_png:7.2f} / "
                   f"{c_png:7.2f}   {w_png / w_store:5.1f} x / {c_png / c_store:5.1f} x faster")
-        _results.save(a, "Importing the official release; random access per example",
-                      {"what": "cv2.imread of every PNG of the release (decoding alone)", "value": decode_cpu,
-                       "unit": "CPU s"}, rows, figures)
+        rows = [{"measurement": "import of the eight splits (wall)", "value": wall, "unit": "s"},
+                {"measurement": "scan of the eight splits", "value": scan, "unit": "CPU-s"},
+                {"measurement": "confining the PNGs: listed_inside", "value": listing, "unit": "CPU-s"},
+                {"measurement": "confining the PNGs: inside, each", "value": each_path, "unit": "CPU-s"}]
+        _results.save(a, "Importing the official release: time, size and random access",
+                      {"what": "cv2.imread of every PNG (a sample, extrapolated)", "value": decode_cpu,
+                       "unit": "CPU-s"}, rows, figures)
     finally:
         shutil.rmtree(tmp)
 

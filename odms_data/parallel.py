@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import multiprocessing
 import multiprocessing.forkserver
+import multiprocessing.resource_tracker
 import os
 import signal
 import sys
@@ -85,28 +86,27 @@ def _start_fork_server() -> None:
     that other code. PYTHONSAFEPATH drops the current folder, PYTHONPATH gives this process's path;
     both are set only while the server starts (it keeps them in its environment).
 
-    SIGINT is ignored while the server is started, so that the server inherits that: a Ctrl-C while
-    it loaded the kernels printed its traceback (100 lines) above the caller's one line. A Ctrl-C in
-    those few milliseconds is lost; one during the kernels' loading, seconds long, is not. A first
-    process that does nothing waits for that loading: a pool's worker whose start a Ctrl-C cut
-    short failed, once forked, on its pool's semaphores, which the stopped caller had removed."""
+    SIGINT is blocked while the server is started, so that the server starts with it blocked until
+    it ignores it (after its preloading): a Ctrl-C while it loaded the kernels printed its traceback
+    (100 lines) above the caller's one line. Blocked, not ignored: a Ctrl-C in those milliseconds
+    waits for the caller, which then stops (ignoring it lost it, and the command ran on); the
+    resource tracker is started the same way. A first process that does nothing waits for the
+    loading: a pool's worker whose start a Ctrl-C cut short failed, once forked, on its pool's
+    semaphores, which the stopped caller had removed."""
     path = [os.getcwd() if p == "" else p for p in sys.path]
     saved = {k: os.environ.get(k) for k in ("PYTHONSAFEPATH", "PYTHONPATH")}
     os.environ.update(PYTHONSAFEPATH="1", PYTHONPATH=os.pathsep.join(path))
-    # not from another thread (signal.signal would raise), nor over a handler Python did not set
-    main_thread = threading.current_thread() is threading.main_thread()
-    ours = main_thread and signal.getsignal(signal.SIGINT) is not None
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if ours else None
+    multiprocessing.resource_tracker.ensure_running()  # first: its start unblocks SIGINT when done
+    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
         multiprocessing.forkserver.ensure_running()
     finally:
-        if ours:
-            signal.signal(signal.SIGINT, previous)
         for k, v in saved.items():
             if v is None:
                 os.environ.pop(k, None)
             else:
                 os.environ[k] = v
+        signal.pthread_sigmask(signal.SIG_SETMASK, blocked)  # last: a pending Ctrl-C is raised here
     ready = multiprocessing.get_context("forkserver").Process(target=_nothing, name="fork-server-ready")
     ready.start()
     ready.join()

@@ -9,12 +9,15 @@ stores. An entry is built in a `.partial` sibling and renamed into place complet
 made read-only, so a test that writes into them fails (unless run as root). A `files.json` lists
 every file's size and, for the stores, its sha256; an entry that does not match it (a file lost,
 truncated, or a store changed) is rebuilt. Entries of other keys unused for a week,
-and partial entries of runs that were killed, are removed.
+and partial entries of runs that were killed, are removed. A run builds under a lock on the
+cache's folder, so that a second run, or a second pytest-xdist worker, asking meanwhile waits for
+that entry instead of importing the release again beside it.
 """
 
 from __future__ import annotations
 
 import ast
+import fcntl
 import hashlib
 import json
 import os
@@ -119,10 +122,19 @@ def official_entry(archive: Path, import_release: Callable[[Path, Path], object]
     imported stores), built with `import_release(data_dir, out_dir)` when absent or damaged."""
     root = cache_root()
     entry = root / cache_key(archive)
-    if _intact(entry):
-        os.utime(entry)  # in use: not pruned
-        return entry
     root.mkdir(parents=True, exist_ok=True)
+    lock = os.open(root, os.O_RDONLY)
+    try:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # released when closed, also by a run that is killed
+        if _intact(entry):
+            os.utime(entry)  # in use: not pruned
+            return entry
+        return _build(archive, root, entry, import_release)
+    finally:
+        os.close(lock)
+
+
+def _build(archive: Path, root: Path, entry: Path, import_release: Callable[[Path, Path], object]) -> Path:
     for stale in root.glob("*.partial-*"):  # left by a run that was killed
         if not _alive(int(stale.name.rsplit("-", 1)[1])):
             _remove(stale)

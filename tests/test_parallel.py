@@ -204,3 +204,35 @@ def test_workers_import_the_callers_odms_data_not_the_current_folders(tmp_path):
                        capture_output=True, text=True, cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     assert "decoy" not in r.stderr and (tmp_path / "out.zarr").is_dir()
+
+
+CTRL_C_AS_THE_FORK_SERVER_STARTS = """
+import os, signal
+import multiprocessing.util as util
+from odms_data.parallel import _start_fork_server
+
+spawn = util.spawnv_passfds
+
+def spawn_then_ctrl_c(path, args, passfds):
+    pid = spawn(path, args, passfds)
+    if "multiprocessing.forkserver" in " ".join(map(str, args)):  # the fork server has just started
+        os.kill(os.getpid(), signal.SIGINT)
+    return pid
+
+util.spawnv_passfds = spawn_then_ctrl_c
+try:
+    _start_fork_server()
+except KeyboardInterrupt:
+    print("stopped")
+else:
+    print("ran on")
+"""
+
+
+def test_a_ctrl_c_as_the_fork_server_starts_stops_the_caller(tmp_path):
+    """A real SIGINT at the moment the fork server has been started, before the caller goes on:
+    the caller stops (it is not lost while the server is shielded from it)."""
+    r = subprocess.run([sys.executable, "-c", CTRL_C_AS_THE_FORK_SERVER_STARTS], cwd=tmp_path,
+                       capture_output=True, text=True, timeout=120)
+    assert r.stdout.strip() == "stopped", r.stdout + r.stderr
+    assert "Traceback" not in r.stderr, r.stderr  # the server, loading the kernels, did not get it

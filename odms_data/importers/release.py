@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DigestMismatchError, InputError, OutputExistsError
-from ..paths import inside
+from ..paths import listed_inside
 from ..protocol import OFFICIAL_SPLITS, ROBOT_FRAMES, ROBOT_N_OBS, ROBOT_WINDOWS, protocol_windows
 from ..store.format import StoreAttrs, store_path
 from ..store.manifests import check_against_manifest, load_manifest, split_names
@@ -56,8 +56,7 @@ class Folder:
 
 def _numbered_pngs(folder: Path) -> tuple[list[Path], np.ndarray]:
     """The folder's PNGs sorted by the number in their name, and those numbers."""
-    pngs = [inside(folder, p.name, str(folder)) for p in folder.iterdir()
-            if p.suffix.lower() == ".png" and not p.name.startswith(".")]
+    pngs = listed_inside(folder, lambda p: p.suffix.lower() == ".png" and not p.name.startswith("."))
     for p in pngs:
         if not re.fullmatch(r"[0-9]+", p.stem):
             raise InputError(f"{p}: file name is not a number (the release names each mask by its "

@@ -24,7 +24,7 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
-from ..paths import inside
+from ..paths import listed_inside
 from ..store.oddity import Oddity
 from .builder import Importer, Progress
 from .decoding import Workers
@@ -67,8 +67,10 @@ class SequenceFiles:
 
 def _numbered(folder: Path, suffix: str) -> dict[int, Path]:
     """Files named by a frame number (000123.png), each inside `folder`; other files are ignored."""
-    return {int(p.stem): inside(folder, p.name, str(folder)) for p in folder.iterdir()
-            if p.suffix.lower() == suffix and re.fullmatch(r"[0-9]+", p.stem)}
+    def numbered(p: Path) -> bool:
+        return p.suffix.lower() == suffix and re.fullmatch(r"[0-9]+", p.stem) is not None
+
+    return {int(p.stem): p for p in listed_inside(folder, numbered)}
 
 
 def find_sequence(seq_dir: Path, camera: str, skip_bad: bool) -> tuple[SequenceFiles, list[Oddity]]:
