@@ -10,7 +10,8 @@ The rule, measured on ODMD's own conversion of the ODMS release (docs/ODMD.md ha
 - an empty mask gives [0, 0, 0, 0].
 
 Frames whose mask is one region (largest_area == area) take their box from the stored `bbox`
-without decoding; the others decode their mask once.
+without decoding; the others decode their mask once. A store of boxes (FORMAT.md, version 2)
+gives its stored boxes and movements as they are, its frames already in ODMD's order.
 
 `example_boxes` gives whole examples as DBox and Box_LS take them (loaders/box_transform.py's
 convention): ODMD's orientation, frames far to near, the label the depth at the last (closest)
@@ -62,6 +63,8 @@ def frame_boxes(store: Store, frames: np.ndarray) -> np.ndarray:
     """(k, 4) float64 ODMD boxes [x_c, y_c, w, h] (normalised by the image size) of the given
     frame rows of `store`."""
     frames = np.asarray(frames, np.int64)
+    if store.kind == "boxes":
+        return store.box[frames]
     rect = store.bbox[frames].astype(np.int64)
     several = np.flatnonzero(store.largest_area[frames] < store.area[frames])
     for i in several:  # more than one region: the box is the largest one's, read from the mask
@@ -101,6 +104,10 @@ def example_frames(store: Store, i: int, n_obs: int, odmd_conversion: bool) -> n
     """The frame rows of example `i` that give its boxes: as VOS-DE chooses them, closest first
     (default), or as ODMD's conversion chooses them, farthest first."""
     row = store.frames_of(i)
+    if store.kind == "boxes":  # in ODMD's order already, far to near
+        if odmd_conversion:
+            raise InputError(f"{store.path}: ODMD's conversion reads stores of masks; this one holds boxes")
+        return row[observation_columns(len(row), n_obs)]
     if not odmd_conversion:
         return row[observation_columns(len(row), n_obs)]
     far_first = _window(row, store.z)[::-1]
@@ -125,10 +132,13 @@ def example_boxes(store: Store, rows: np.ndarray | list[int], n_obs: int = 10,
                          f"together with n_obs={n_obs}; ask for examples of one length at a time")
     n = counts.pop() if counts else n_obs
     f = np.stack(chosen) if chosen else np.zeros((0, n), np.int64)
-    if not odmd_conversion:
+    if not odmd_conversion and store.kind == "masks":
         f = f[:, ::-1]  # near-first as chosen; far-first as ODMD orders them
     used, inverse = np.unique(f, return_inverse=True)
     boxes = frame_boxes(store, used)[inverse.reshape(f.shape)] if f.size else np.zeros((*f.shape, 4))
+    if store.kind == "boxes":  # movements to the last frame chosen (the example's last)
+        stored = store.move[f]
+        return BoxExamples(boxes, stored - stored[:, -1:], store.d1[rows].astype(np.float64), f)
     z = store.z
     move = np.zeros((*f.shape, 3))
     if odmd_conversion:  # the near-first order's movements, as ODMD pairs them
