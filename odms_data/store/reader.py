@@ -38,7 +38,8 @@ _NUMBERED = re.compile(r"(.*)/(\d+)")  # an example id ending in its number: spl
 
 @dataclass
 class Example:
-    """One ODMS example: n masks with their camera positions, depths and label."""
+    """One example: n masks (or, from a store of boxes, n boxes) with their camera positions,
+    depths and label."""
 
     example_id: str
     source: str
@@ -46,7 +47,8 @@ class Example:
     frames: np.ndarray  # (n,) frame rows in the store
     z: np.ndarray  # (n,) m, ascending
     depth: np.ndarray  # (n,) m, NaN where unknown
-    masks: np.ndarray  # (n, H, W) bool
+    masks: np.ndarray  # (n, H, W) bool; (0, H, W) from a store of boxes
+    boxes: np.ndarray | None = None  # (n, 4) [x_c, y_c, w, h] normalised: a store of boxes only
 
     @property
     def n(self) -> int:
@@ -264,6 +266,10 @@ class Store:
         if not 0 <= i < self.n_examples:
             raise InputError(f"{self.path}: example row {i} is out of range 0..{self.n_examples - 1}")
         frames = self.frames_of(i)  # rows inside the store: frame_index is checked when read
+        if self.kind == "boxes":  # z: the camera's position on the optical axis from the last frame
+            return Example(self.example_ids[i], self.sources[i], float(self.d1[i]), frames,
+                           0.0 - self.move[frames, 2], self.depth[frames],
+                           np.zeros((0, self.height, self.width), bool), self.box[frames])
         return Example(
             example_id=self.example_ids[i],
             source=self.sources[i],

@@ -94,3 +94,18 @@ def test_validate_finds_a_label_that_is_not_the_last_frames_depth(tmp_path):
     write_box_store(path, rows, _attrs())
     report = validate(path)
     assert any("but the depth at its last frame is" in p for p in report.problems), report.problems
+
+
+def test_show_draws_each_box_of_an_example_of_boxes(tmp_path):
+    from PIL import Image
+
+    rows = ideal_rows(E=1, n=2)
+    rows.boxes[0, 1] = 0  # the last frame's detection is missed: nothing drawn there
+    path = str(tmp_path / "b.zarr")
+    write_box_store(path, rows, _attrs())
+    out = tmp_path / "sheet.png"
+    res = CliRunner().invoke(main, ["show", path, "boxy/0", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    sheet = np.asarray(Image.open(out))
+    first, second = sheet[24:204, 4:244], sheet[24:204, 248:488]  # the two thumbnails (240 wide)
+    assert (first == 255).sum() > 20 and (second == 255).sum() == 0
