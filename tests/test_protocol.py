@@ -1,11 +1,12 @@
 """The benchmark's facts agree with the shipped split manifests."""
 
+from odms_data.importers.odmd import ODMD_SETS
 from odms_data.protocol import OFFICIAL_COUNTS, OFFICIAL_SPLITS, evenly_spaced, protocol_windows
 from odms_data.store.manifests import load_manifest, split_names
 
 
 def test_official_splits_and_counts_are_the_imported_manifests():
-    imported = [s for s in split_names() if load_manifest(s).kind == "imported"]
+    imported = [s for s in split_names() if load_manifest(s).kind == "imported" and s not in ODMD_SETS]
     assert sorted(imported) == sorted(OFFICIAL_SPLITS) == sorted(OFFICIAL_COUNTS)
     assert {s: load_manifest(s).count for s in imported} == OFFICIAL_COUNTS
     assert sum(OFFICIAL_COUNTS.values()) == 15_650
@@ -16,3 +17,10 @@ def test_evenly_spaced_truncates_and_the_robot_protocol_has_55_windows():
     windows = protocol_windows(30, (10, 15, 20, 25, 30), 10)
     assert len(windows) == 55
     assert windows[-1][0] == 30 and windows[-1][2].tolist() == evenly_spaced(0, 29, 10).tolist()
+
+
+def test_odmds_sets_have_manifests_of_the_sizes_odmd_publishes():
+    counts = {s: load_manifest(s).count for s in ODMD_SETS}
+    assert sum(c for s, c in counts.items() if s.startswith("odmd-")) == 21_600  # 4 x 2,400 + 4 x 3,000
+    converted = {s.removeprefix("odms-detect-"): c for s, c in counts.items() if s.startswith("odms-detect-")}
+    assert converted == OFFICIAL_COUNTS  # ODMD's conversion of ODMS keeps every example

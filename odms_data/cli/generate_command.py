@@ -9,6 +9,7 @@ import click
 from .. import safe_json
 from ..errors import InputError
 from ..extras import optional
+from ..simulate.box_examples import BOX_PRESETS
 from ..simulate.params import (
     DEFAULT_EXAMPLES_PER_SHARD,
     PRESETS,
@@ -66,6 +67,9 @@ def _split_recipe(split_name: str, given: list[str]):
 @click.option("--examples-per-shard", type=click.IntRange(min=1),
               default=DEFAULT_EXAMPLES_PER_SHARD, show_default=True,
               help="Examples per shard (one task each); does not change the content.")
+@click.option("--boxes", "box_preset", type=click.Choice(list(BOX_PRESETS)), default=None,
+              help="Write a store of boxes (ODMD's kind) from the box generator with this preset, "
+                   "rather than masks; takes -n, --seed, --name, -o, --format.")
 @click.option("--overwrite", is_flag=True, help="Replace an existing store.")
 @click.option("--json", "as_json", is_flag=True, help="Print what was written as JSON.")
 @click.option("--scheduler", metavar="ADDRESS", default=None,
@@ -73,7 +77,7 @@ def _split_recipe(split_name: str, given: list[str]):
                    "instead of local --workers; needs the dask extra. The output must be a path "
                    "every worker sees, or a URL such as s3://bucket/train.zarr.")
 def generate(split_name, count, preset, seed, n_obs, params, store_split, output, fmt, workers,
-             examples_per_shard, overwrite, as_json, scheduler):
+             examples_per_shard, box_preset, overwrite, as_json, scheduler):
     """Generate simulated ODMS examples into a store.
 
     \b
@@ -81,7 +85,21 @@ def generate(split_name, count, preset, seed, n_obs, params, store_split, output
       odms-data generate --split sim-val
       odms-data generate -n 100000 --preset perturb --seed 7 -o train.zarr --workers 8
       odms-data generate -n 2560000 --scheduler tcp://head:8786 -o s3://lab/odms/train.zarr
+      odms-data generate -n 10000 --boxes odmd --seed 3 -o odmd-train.zarr
     """
+    if box_preset:
+        given = {"--split": split_name, "--preset": preset, "--n-obs": n_obs, "--param": params,
+                 "--workers": workers, "--scheduler": scheduler}
+        _generate_boxes(box_preset, count, seed, store_split, output, fmt, overwrite, as_json,
+                        [o for o, v in given.items() if v])
+        return
+    _generate_masks(split_name, count, preset, seed, n_obs, params, store_split, output, fmt, workers,
+                    examples_per_shard, overwrite, as_json, scheduler)
+
+
+def _generate_masks(split_name, count, preset, seed, n_obs, params, store_split, output, fmt, workers,
+                    examples_per_shard, overwrite, as_json, scheduler):
+    """`generate` of a store of masks."""
     from ..simulate.generate_store import generate as generate_store
     from ..store.format import store_path
     from ..store.manifests import check_against_manifest
@@ -123,3 +141,24 @@ def generate(split_name, count, preset, seed, n_obs, params, store_split, output
     click.echo(f"wrote {output}: {count} examples, digest {attrs.digest}")
     if manifest is not None:
         click.echo(f"digest matches splits/{split_name}.json")
+
+
+def _generate_boxes(preset, count, seed, split, output, fmt, overwrite, as_json, given):
+    """`generate --boxes PRESET`: a store of boxes from the box generator."""
+    from ..simulate.generate_box_store import generate_box_store
+    from ..store.format import store_path
+
+    if given:
+        raise InputError(f"--boxes takes -n, --seed, --name, -o and --format, not {given[0]}")
+    if count is None:
+        raise InputError("give -n COUNT with --boxes")
+    split = split or "generated"
+    output = output or str(store_path(".", split, "hdf5" if fmt == "hdf5" else "zarr"))
+    with progress(count, f"generating {output}") as update:
+        attrs = generate_box_store(output, count, preset, seed or 0, split=split, fmt=fmt,
+                                   overwrite=overwrite, progress=update)
+    if as_json:
+        echo_json({"output": output, "split": split, "examples": count, "boxes": preset, "seed": seed or 0,
+                   "digest": attrs.digest})
+        return
+    click.echo(f"wrote {output}: {count} examples of boxes, digest {attrs.digest}")

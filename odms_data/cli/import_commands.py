@@ -1,10 +1,11 @@
-"""`odms-data import odms`, `odms-data import recording` and `odms-data import synthia`."""
+"""`odms-data import odms`, `import odmd`, `import recording` and `import synthia`."""
 
 from __future__ import annotations
 
 import click
 
 from ..errors import InputError
+from ..importers.odmd import ODMD_SETS
 from ..importers.plan import DEFAULT_THRESHOLD
 from ..importers.result import ImportResult
 from ..importers.synthia_protocol import (
@@ -40,11 +41,12 @@ def _counts(option: str, text: str | None) -> list[int] | None:
 
 @click.group("import")
 def import_group() -> None:
-    """Import real segmentations: the official ODMS release, your own recording, SYNTHIA.
+    """Import real data: the official ODMS release, ODMD's sets, your own recording, SYNTHIA.
 
     \b
     Examples:
       odms-data import odms ODMS/data -o stores/
+      odms-data import odmd ODMD/data -o odmd-stores/
       odms-data import recording masks/ --positions positions.csv -o cup.zarr
       odms-data import synthia SYNTHIA-SEQS-01-DAWN SYNTHIA-SEQS-02-FOG -o driving.zarr
     """
@@ -97,6 +99,44 @@ def odms(data_dir, out_dir, splits, fmt, overwrite, skip_bad, no_verify, workers
         echo_text(f"wrote {r.path}: {counts['examples']} examples, {counts['frames']} frames, "
                    f"{len(r.attrs.oddities)} oddities recorded; {verdict}")
         _report_skipped(r, f"folder(s) of {r.name}")
+
+
+@import_group.command("odmd")
+@click.argument("data_dir", type=click.Path())
+@click.option("-o", "--output", "out_dir", type=click.Path(), required=True,
+              help="Folder for the stores <set>.zarr (or .h5).")
+@click.option("--set", "sets", multiple=True, type=click.Choice(list(ODMD_SETS)),
+              help="Import only this set (repeatable; default: all sixteen).")
+@click.option("--format", "fmt", type=click.Choice(["zarr", "hdf5"]), default="zarr", show_default=True,
+              help="Store backend.")
+@click.option("--overwrite", is_flag=True, help="Replace existing stores.")
+@click.option("--json", "as_json", is_flag=True, help="Print what was written as JSON.")
+def odmd(data_dir, out_dir, sets, fmt, overwrite, as_json):
+    """Import ODMD's sets (Griffin & Corso, CVPR 2021) into verified stores of boxes.
+
+    DATA_DIR is the data/ folder of the authors' repository griffbr/ODMD (odmd/ and
+    odms_detection/ inside): ODMD's eight val/test sets (odmd-normal-val, ...) and its eight
+    sets converted from ODMS (odms-detect-robot-val, ...). The pickles are read without running
+    any code they carry; each store is checked against its manifest in splits/.
+
+    \b
+    Example:
+      odms-data import odmd ODMD/data -o odmd-stores/
+      odms-data baseline box-ls odmd-stores/odmd-normal-test.zarr -o box-ls.csv
+    """
+    from ..importers.odmd import import_odmd
+
+    with Bars("importing {}") as bars:
+        results = import_odmd(data_dir, out_dir, splits=list(sets) or None, fmt=fmt, overwrite=overwrite,
+                              progress=bars)
+    if as_json:
+        echo_json({"stores": [{"split": r.attrs.split, "path": r.path, **r.attrs.counts,
+                               "digest": r.attrs.digest} for r in results]})
+        return
+    for r in results:
+        counts = r.attrs.counts
+        echo_text(f"wrote {r.path}: {counts['examples']} examples, {counts['frames']} frames; "
+                  f"matches splits/{r.name}.json")
 
 
 @import_group.command("recording")

@@ -189,18 +189,21 @@ def box_ls(stores, data, n_obs, odmd_conversion, output, overwrite, as_json):
               help="Mean percent error or mean absolute error (cm; driving in m).")
 @click.option("--dir", "folder", type=click.Path(file_okay=False), default=None,
               help="Folder of entries (default: the leaderboard/ shipped with odms-data).")
+@click.option("--benchmark", type=click.Choice(["odms", "odmd"]), default="odms", show_default=True,
+              help="ODMS's table, or ODMD's (its sets normal, perturb motion, perturb detection, robot).")
 @click.option("--json", "as_json", is_flag=True, help="Print the ranked entries as JSON (all metrics).")
-def leaderboard(family, metric, folder, as_json):
+def leaderboard(family, metric, folder, benchmark, as_json):
     """Print the leaderboard as markdown, sorted by All (lowest error first).
 
     \b
     Examples:
       odms-data leaderboard
       odms-data leaderboard --family val --metric abs
+      odms-data leaderboard --benchmark odmd
     """
     from ..evaluation.leaderboard import family_all, load_entries, ranked, render_markdown
 
-    entries = load_entries(folder)
+    entries = load_entries(folder, benchmark)
     if as_json:
         keys = ("name", "n_obs", "training_data", "radial_input", "figures", "link", "citation")
         echo_json([
@@ -208,4 +211,4 @@ def leaderboard(family, metric, folder, as_json):
              "results": e.results[family]}
             for rank, e in enumerate(ranked(entries, family), 1)])
         return
-    click.echo(render_markdown(entries, family, metric), nl=False)
+    click.echo(render_markdown(entries, family, metric, benchmark), nl=False)

@@ -41,6 +41,9 @@ def validate(store, as_json):
         raise click.exceptions.Exit(1)
 
 
+EMPTY = {"masks": ("empty_masks", "empty masks"), "boxes": ("missed_detections", "missed boxes")}
+
+
 @click.command()
 @click.argument("store", type=click.Path())
 @click.option("--json", "as_json", is_flag=True, help="Print the attributes and summary as JSON.")
@@ -53,12 +56,13 @@ def info(store, as_json):
     """
     with open_store(store) as s:
         a = s.attrs
+        empty_key, empty_text = EMPTY[s.kind]
         n_obs, d1 = s.n_obs, s.d1[~np.isnan(s.d1)]
         summary = {
             "path": store, "format": s.format, **a.to_json(),
             "observations": {"min": int(n_obs.min()), "max": int(n_obs.max())},
             "d1": {"min": float(d1.min()), "max": float(d1.max())} if len(d1) else None,
-            "empty_masks": int((s.area == 0).sum()),
+            empty_key: int(s.empty_frames.sum()),
             "example_ids": {"first": s.example_ids[0], "last": s.example_ids[-1]} if len(s) else None,
         }
     if as_json:
@@ -73,7 +77,7 @@ def info(store, as_json):
         f"obs/example {summary['observations']['min']}..{summary['observations']['max']}",
         "d1 (m)      "
         + (f"{summary['d1']['min']:.4f}..{summary['d1']['max']:.4f}" if summary["d1"] else "-"),
-        f"empty masks {summary['empty_masks']}",
+        f"{empty_text} {summary[empty_key]}",
         "example ids " + (f"{ids['first']} .. {ids['last']} (e.g. odms-data show {store} {ids['first']} "
                           "-o sheet.png)" if (ids := summary["example_ids"]) else "-"),
         f"digest      {a.digest}",

@@ -1,7 +1,8 @@
 """The leaderboard: one JSON entry per method in leaderboard/ (schemas/leaderboard-entry.schema.json).
 
 Entries are either *published* (figures as printed in the cited work) or *computed* (scored by
-odms-data from a predictions file, with the store digests they were scored against).
+odms-data from a predictions file, with the store digests they were scored against). Each is on
+one benchmark (BENCHMARKS): ODMS (the default) or ODMD, whose sets are ODMD's own four.
 """
 
 from __future__ import annotations
@@ -23,6 +24,33 @@ from ..protocol import ABS_UNITS, FAMILIES, OFFICIAL_DOMAINS, official_name
 from ..resources import resource_dir
 from ..shown_text import markdown_link, markdown_text
 from .scoring import ScoreReport
+
+
+@dataclass(frozen=True)
+class Benchmark:
+    """A benchmark's table: its title, its sets (domains) in order, the unit of their absolute
+    errors, and how a split of it is named (`split(domain, family)`)."""
+
+    title: str
+    domains: tuple[str, ...]
+    abs_units: dict[str, str]
+    prefix: str  # split names: <prefix><domain, "_" as "-">-<family>; "" for ODMS's own
+    decimals: int  # as the benchmark's papers print them
+
+    def split_of(self, split: str, domain: str) -> tuple[str, str] | None:
+        """(domain, family) when `split` is a split of this benchmark."""
+        if not self.prefix:
+            return official_name(split, domain)
+        name, _, fam = split.rpartition("-")
+        d = name.removeprefix(self.prefix).replace("-", "_")
+        return (d, fam) if name.startswith(self.prefix) and d in self.domains and fam in FAMILIES else None
+
+
+ODMD_DOMAINS = ("normal", "perturb_motion", "perturb_detection", "robot")
+BENCHMARKS = {
+    "odms": Benchmark("ODMS", OFFICIAL_DOMAINS, ABS_UNITS, "", 1),
+    "odmd": Benchmark("ODMD", ODMD_DOMAINS, dict.fromkeys(ODMD_DOMAINS, "cm"), "odmd-", 2),
+}
 
 
 @cache
@@ -65,6 +93,7 @@ class LeaderboardEntry:
     source: str | None = None
     note: str | None = None
     scored: dict[str, Any] | None = None  # computed entries: by, date, predictions_sha256, stores
+    benchmark: str = "odms"
 
     def __post_init__(self) -> None:
         check_entry(self.to_json(), f"entry {self.name!r}")
@@ -77,6 +106,8 @@ class LeaderboardEntry:
             "link": self.link, "source": self.source, "note": self.note, "results": self.results,
             "scored": self.scored,
         }
+        if self.benchmark != "odms":
+            d["benchmark"] = self.benchmark
         return {k: v for k, v in d.items() if v is not None or k not in ("source", "note", "scored")}
 
     @classmethod
@@ -85,8 +116,9 @@ class LeaderboardEntry:
         return cls(**d)
 
 
-def load_entries(folder: Path | None = None) -> list[LeaderboardEntry]:
-    """Every entry of `folder` (default: the shipped leaderboard/), checked; names must be unique."""
+def load_entries(folder: Path | None = None, benchmark: str = "odms") -> list[LeaderboardEntry]:
+    """Every entry of `folder` (default: the shipped leaderboard/) on `benchmark`, checked; names
+    must be unique."""
     folder = Path(folder) if folder else resource_dir("leaderboard")
     if not folder.is_dir():
         siblings = [p.name for p in folder.parent.iterdir() if p.is_dir()] if folder.parent.is_dir() else []
@@ -103,21 +135,22 @@ def load_entries(folder: Path | None = None) -> list[LeaderboardEntry]:
             raise InputError(f"{path}: entry name {entry.name!r} is also used by {seen[entry.name]}")
         seen[entry.name] = path
         entries.append(entry)
-    return entries
+    return [e for e in entries if e.benchmark == benchmark]
 
 
 def family_all(entry: LeaderboardEntry, family: str) -> float | None:
     """The entry's All for `family`: as printed, else the mean of the four percent errors."""
     fam = entry.results.get(family, {})
+    domains = BENCHMARKS[entry.benchmark].domains
     if "all" in fam:
         return fam["all"]
-    if all(d in fam for d in OFFICIAL_DOMAINS):
-        return sum(fam[d]["percent"] for d in OFFICIAL_DOMAINS) / len(OFFICIAL_DOMAINS)
+    if all(d in fam for d in domains):
+        return sum(fam[d]["percent"] for d in domains) / len(domains)
     return None
 
 
-def _cell(x: float | None) -> str:
-    return "–" if x is None else f"{x:.1f}"
+def _cell(x: float | None, decimals: int = 1) -> str:
+    return "–" if x is None else f"{x:.{decimals}f}"
 
 
 def ranked(entries: list[LeaderboardEntry], family: str = "test") -> list[LeaderboardEntry]:
@@ -132,15 +165,19 @@ def ranked(entries: list[LeaderboardEntry], family: str = "test") -> list[Leader
     return sorted((e for e in entries if e.results.get(family)), key=key)
 
 
-def render_markdown(entries: list[LeaderboardEntry], family: str = "test", metric: str = "percent") -> str:
-    """A markdown table sorted by All (lowest first; entries without All last)."""
-
+def render_markdown(entries: list[LeaderboardEntry], family: str = "test", metric: str = "percent",
+                    benchmark: str = "odms") -> str:
+    """A markdown table of the entries on `benchmark`, sorted by All (lowest first; entries
+    without All last)."""
+    b = BENCHMARKS[benchmark]
+    domains, units = b.domains, b.abs_units
+    entries = [e for e in entries if e.benchmark == benchmark]
     if metric == "percent":
-        heads = [d.capitalize() for d in OFFICIAL_DOMAINS] + ["All"]
-        title = f"Mean percent error, ODMS {family} sets (lower is better)"
+        heads = [d.replace("_", " ").capitalize() for d in domains] + ["All"]
+        title = f"Mean percent error, {b.title} {family} sets (lower is better)"
     else:
-        heads = [f"{d.capitalize()} ({ABS_UNITS[d]})" for d in OFFICIAL_DOMAINS]
-        title = f"Mean absolute error, ODMS {family} sets (lower is better; sorted by percent All)"
+        heads = [f"{d.replace('_', ' ').capitalize()} ({units[d]})" for d in domains]
+        title = f"Mean absolute error, {b.title} {family} sets (lower is better; sorted by percent All)"
     lines = [
         f"{title}", "",
         "| # | Method | n | Training | " + " | ".join(heads) + " | Figures |",
@@ -149,13 +186,13 @@ def render_markdown(entries: list[LeaderboardEntry], family: str = "test", metri
     for rank, e in enumerate(ranked(entries, family), 1):
         fam = e.results[family]
         if metric == "percent":
-            cells = [_cell(fam[d]["percent"]) if d in fam else "–" for d in OFFICIAL_DOMAINS]
-            cells.append(_cell(family_all(e, family)))
+            cells = [_cell(fam[d]["percent"], b.decimals) if d in fam else "–" for d in domains]
+            cells.append(_cell(family_all(e, family), b.decimals))
         else:
             scale = {"m": 1.0, "cm": 100.0}
             cells = [
-                _cell(fam[d]["abs_m"] * scale[ABS_UNITS[d]]) if "abs_m" in fam.get(d, {}) else "–"
-                for d in OFFICIAL_DOMAINS
+                _cell(fam[d]["abs_m"] * scale[units[d]], b.decimals) if "abs_m" in fam.get(d, {}) else "–"
+                for d in domains
             ]
         name = markdown_link(e.name, e.link)
         n = str(e.n_obs) if e.n_obs else "–"
@@ -173,12 +210,15 @@ def entry_from_report(
     report: ScoreReport, name: str, *, method: str | None = None, citation: str | None = None,
     link: str | None = None, n_obs: int | None = None, predictions_sha256: str = "",
 ) -> LeaderboardEntry:
-    """A computed leaderboard entry from a complete score of official splits, schema-checked."""
+    """A computed leaderboard entry from a complete score of official splits (ODMS's, else
+    ODMD's), schema-checked."""
     if report.partial:
         raise InputError("a leaderboard entry needs every example scored", fix="complete-score")
+    benchmark = next((k for k, b in BENCHMARKS.items()
+                      if any(b.split_of(s.split, s.domain) for s in report.scores)), "odms")
     results: dict[str, dict] = {}
     for s in report.scores:
-        off = official_name(s.split, s.domain)
+        off = BENCHMARKS[benchmark].split_of(s.split, s.domain)
         if off is None:
             continue
         d, fam = off
@@ -189,13 +229,16 @@ def entry_from_report(
             "percent": round(s.mean_percent_error, 4), "abs_m": round(s.mean_abs_error_m, 6),
             "median_percent": round(s.median_percent_error, 4), "n": s.n,
         }
-    for fam, value in report.all.items():
-        results[fam]["all"] = round(value, 4)
     if not results:
         raise InputError(
-            f"{report.predictions}: no official split (robot/driving/normal/perturb-val/test) was scored; "
-            "a leaderboard entry needs at least one"
+            f"{report.predictions}: no official split (robot/driving/normal/perturb-val/test, or ODMD's "
+            "odmd-normal-val ...) was scored; a leaderboard entry needs at least one"
         )
+    for fam, value in report.all.items() if benchmark == "odms" else ():
+        results[fam]["all"] = round(value, 4)
+    for sets in results.values() if benchmark != "odms" else ():
+        if all(d in sets for d in BENCHMARKS[benchmark].domains):  # ODMD's All: the mean of its four
+            sets["all"] = round(sum(sets[d]["percent"] for d in ODMD_DOMAINS) / len(ODMD_DOMAINS), 4)
     return LeaderboardEntry(
         name=name, method=method or name, n_obs=n_obs, training_data=None,
         radial_input=None, figures="computed", citation=citation, link=link,
@@ -207,4 +250,5 @@ def entry_from_report(
             "predictions_sha256": predictions_sha256 or hashlib.sha256(b"").hexdigest(),
             "stores": {s: report.digests[s] for s in sorted(report.digests)},
         },
+        benchmark=benchmark,
     )

@@ -27,18 +27,13 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from ..protocol import evenly_spaced
+from ..protocol import observation_columns
 from ..store.reader import Store
 from .baseline_result import BaselineResult
 
 DEFAULT_N_OBS = 10
 
 
-def observation_columns(n: int, n_obs: int) -> np.ndarray:
-    """Which of n observations VOS-DE uses: all when n <= n_obs, else n_obs evenly spaced."""
-    if n <= n_obs:
-        return np.arange(n)
-    return evenly_spaced(0, n - 1, n_obs)
 
 
 def solve(sqrt_area: np.ndarray, dz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -1,4 +1,4 @@
-"""Contact sheets: one example's masks in a grid, with z and depth under each."""
+"""Contact sheets: one example's masks (or boxes) in a grid, with z and depth under each."""
 
 from __future__ import annotations
 
@@ -37,8 +37,10 @@ def object_box(masks: np.ndarray) -> tuple[int, int, int, int] | None:
 def contact_sheet(example: Example, columns: int = COLUMNS, crop: bool = False) -> Image.Image:
     """A grid image of the example's masks, each captioned with its index, z and depth; `crop`:
     every mask cut to the box around the object in all of them (a 10-pixel object fills the
-    thumbnail, pixels drawn as squares)."""
-    masks = example.masks
+    thumbnail, pixels drawn as squares). An example of boxes draws each box's outline on a black
+    frame of the image's shape (`crop` does not apply)."""
+    masks = example.masks if example.boxes is None else np.zeros((example.n, *example.masks.shape[1:]), bool)
+    crop = crop and example.boxes is None
     box = object_box(masks) if crop else None
     if box is not None:
         masks = masks[:, box[0]:box[1], box[2]:box[3]]
@@ -62,6 +64,10 @@ def contact_sheet(example: Example, columns: int = COLUMNS, crop: bool = False) 
         mask = Image.fromarray(masks[i].astype(np.uint8) * 255)
         thumb = mask.resize((tw, th), Image.Resampling.NEAREST if W < tw else Image.Resampling.BILINEAR)
         sheet.paste(thumb, (x, y))
+        if example.boxes is not None and example.boxes[i, 2] != 0:  # width 0: a missed detection
+            xc, yc, w, h = example.boxes[i]
+            draw.rectangle([x + (xc - w / 2) * tw, y + (yc - h / 2) * th, x + (xc + w / 2) * tw,
+                            y + (yc + h / 2) * th], outline=255)
         depth = "depth ?" if math.isnan(example.depth[i]) else f"depth {example.depth[i]:.3f} m"
         draw.text((x + 2, y + th + 4), f"#{i + 1}  z {example.z[i]:.4f} m  {depth}", fill=255)
     return sheet

@@ -145,6 +145,10 @@ def export_hub(
     target = Path(out_dir)
     opened = [open_store(p) for p in stores]
     try:
+        boxes = next((p for p, s in zip(stores, opened, strict=True) if s.kind != "masks"), None)
+        if boxes is not None:  # the card, the Croissant fields and the columns describe masks
+            raise InputError(f"{boxes}: a store of boxes cannot be exported to the Hub yet; "
+                             "export stores of masks")
         splits = [s.attrs.split for s in opened]
         twice = sorted({s for s in splits if splits.count(s) > 1})
         if twice:

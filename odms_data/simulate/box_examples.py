@@ -127,9 +127,10 @@ def _boxes(p: BoxParams, u: np.ndarray, noise: np.ndarray | None) -> tuple[np.nd
 def sample_box_examples(p: BoxParams, seed: int, indices: Sequence[int] | np.ndarray
                         ) -> dict[str, np.ndarray]:
     """The examples at generator `indices` of (p, seed): `boxes` (B, n, 4), `move` (B, n, 3),
-    `depth` (B,), float64; each depends only on (p, seed, its index). Each example's generator
-    gives, in order: its uniforms, its normals (with `perturb`: box noise then camera noise), and
-    when shuffled the frame and the donor's uniforms and box noise."""
+    `depth` (B,) and each frame's true depth `frame_depth` (B, n), float64; each depends only on
+    (p, seed, its index). Each example's generator gives, in order: its uniforms, its normals
+    (with `perturb`: box noise then camera noise), and when shuffled the frame and the donor's
+    uniforms and box noise."""
     rngs = example_rngs(seed, [int(i) for i in indices])
     n, k = p.num_pos, _n_uniforms(p)
     box_noise = p.perturb and p.std_dev > 0
@@ -152,4 +153,4 @@ def sample_box_examples(p: BoxParams, seed: int, indices: Sequence[int] | np.nda
     move = pos[:, -1:] - pos
     if cam_noise:
         move[:, :-1] += p.cam_dev * normal[:, n_normal - 3 * (n - 1):].reshape(len(rngs), n - 1, 3)
-    return {"boxes": boxes, "move": move, "depth": pos[:, -1, 2].copy()}
+    return {"boxes": boxes, "move": move, "depth": pos[:, -1, 2].copy(), "frame_depth": pos[:, :, 2].copy()}

@@ -22,18 +22,19 @@ def convert(
     nothing is left at `dst`.
     """
     with open_store(src) as s:
-        chunk = int(s.backend.array("masks").chunks[0])
+        chunk = int(s.backend.array("masks").chunks[0]) if s.kind == "masks" else BLOCK_FRAMES
         per_shard = max(chunk, (BLOCK_FRAMES // chunk) * chunk)
         layout = Layout(
             height=s.height, width=s.width, n_frames=s.n_frames, n_examples=s.n_examples,
             max_obs=s.frame_index.shape[1], id_width=s.backend.array("example_id").shape[1],
             source_width=s.backend.array("source").shape[1], frames_per_chunk=chunk,
-            frames_per_shard=per_shard, examples_per_chunk=min(s.n_examples, 4096),
+            frames_per_shard=per_shard, examples_per_chunk=min(s.n_examples, 4096), kind=s.kind,
         )
         with StoreWriter(dst, fmt, overwrite=overwrite) as w:
             w.create(layout)
             for per in ("frame", "example"):
-                w.write_rows(per, 0, {a.name: s.checked(a.name) for a in arrays_per(per) if not a.sharded})
+                w.write_rows(per, 0, {a.name: s.checked(a.name) for a in arrays_per(per, s.kind)
+                                  if not a.sharded})
 
             def copy(start: int, block: np.ndarray) -> None:
                 w.write_masks(start, block)

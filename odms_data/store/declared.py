@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from .backends import Backend, is_url
-from .format import ARRAYS, layout_problems
+from .format import arrays_of, kind_of, layout_problems
 from .hdf5_reader import DEFLATE
 
 MAX_CHUNK_BYTES = 64 * 2**20  # a mask chunk of the largest images odms-data makes is under 2 MB
@@ -39,7 +39,7 @@ WHOLE = "masks"  # the one array read in slices; every other is read whole and c
 def store_problems(backend: Backend, raw: dict[str, Any]) -> list[str]:
     """What the readers check before reading an open store: the layout its attributes `raw`
     promise (format.layout_problems), then the storage rules above, one line each."""
-    return layout_problems(backend, raw) or storage_problems(backend, list(ARRAYS))
+    return layout_problems(backend, raw) or storage_problems(backend, list(arrays_of(kind_of(raw))))
 
 
 def storage_problems(backend: Backend, names: Iterable[str]) -> list[str]:

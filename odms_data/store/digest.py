@@ -18,6 +18,7 @@ from ..errors import StoreError
 from .format import decode_strings
 
 DIGEST_PREFIX = b"odms-store-content/1"
+BOX_PREFIX = b"odms-box-frame/2"  # what a frame of boxes hashes first: never a mask's bytes
 BLOCK_FRAMES = 1024  # frames read at a time when streaming a store
 
 if TYPE_CHECKING:
@@ -71,6 +72,16 @@ def padded_frame_digests(packed: np.ndarray, y0: list[int], y1: list[int], tails
     return b"".join(digests)
 
 
+def box_frame_digests(box: np.ndarray, move: np.ndarray, depth: np.ndarray) -> np.ndarray:
+    """(k, 32) uint8: SHA-256 of each frame of a store of boxes: its box (4), move (3) and depth
+    as little-endian float64, NaN canonical as in `frame_tails`."""
+    v = np.concatenate([box, move, np.asarray(depth)[:, None]], axis=1).astype("<f8")
+    v[np.isnan(v)] = np.nan
+    rows = v.view(np.uint8)
+    return np.stack([np.frombuffer(hashlib.sha256(BOX_PREFIX + r.tobytes()).digest(), np.uint8)
+                     for r in rows]) if len(rows) else np.zeros((0, 32), np.uint8)
+
+
 def example_digest(example_id: str, source: str, d1: float, frames: bytes) -> bytes:
     """SHA-256 of one example: its id, source, label and the digests of its frames in order
     (their 32-byte digests joined)."""
@@ -116,10 +127,15 @@ def recompute_digest(
     content as stored (unchecked: `validate` digests broken stores too; the frame index must hold
     frame rows and the strings must be UTF-8).
 
-    `visit(start, packed_block)` sees every block of packed masks as it is read.
+    `visit(start, packed_block)` sees every block of packed masks as it is read (a store of
+    boxes has none: its frames are digested from `box_frame_digests`).
     """
-    z, depth, d1, fi = (store.raw(name) for name in ("z", "depth", "d1", "frame_index"))
+    depth, d1, fi = (store.raw(name) for name in ("depth", "d1", "frame_index"))
     ids, sources = decode_strings(store.raw("example_id")), decode_strings(store.raw("source"))
+    if store.kind == "boxes":
+        fd = box_frame_digests(store.raw("box"), store.raw("move"), depth)
+        return content_digest(store.height, store.width, fi, fd, ids, sources, d1), fd
+    z = store.raw("z")
     fd = np.empty((store.n_frames, 32), np.uint8)
     for start in range(0, store.n_frames, BLOCK_FRAMES):
         block = store.read_packed(start, min(start + BLOCK_FRAMES, store.n_frames))

@@ -18,7 +18,9 @@ from ..resources import resource_dir
 from .masks import packed_width
 from .oddity import Oddity
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 1  # the version of a store of masks; a store of boxes is version 2 (VERSIONS)
+KINDS = ("masks", "boxes")  # what a store's examples are made of (attribute `kind`; masks when absent)
+VERSIONS = {"masks": 1, "boxes": 2}  # the format version that introduced each kind, which its stores carry
 ATTRS_KEY = "odms"
 UNITS = {"z": "m", "depth": "m", "d1": "m", "area": "px", "bbox": "px"}
 Z_ODDITY = "z-not-increasing"  # the oddity kind that excuses z not increasing (FORMAT.md)
@@ -37,6 +39,7 @@ class Array:
     sharded: bool = False  # written whole shards at a time (masks), chunked inside each shard
     text: bool = False  # NUL-padded UTF-8 strings, one per row (`encode_strings`)
     pad: int = 0  # what fills a row's columns beyond those written
+    kinds: tuple[str, ...] = KINDS  # the kinds of store that hold it
 
 
 # The sizes `trailing` may name: "height" and "packed_width" follow from the image size in the
@@ -46,16 +49,23 @@ FREE_SIZES = ("max_obs", "id_width", "source_width")
 # Every array of a store, in the order they are created and checked. Adding an array is one row
 # here and the code that computes it (which hands it to StoreWriter.write_rows).
 ARRAYS = {a.name: a for a in (
-    Array("masks", np.uint8, "frame", ("height", "packed_width"), sharded=True,  # bit-packed, MSB first
+    Array("masks", np.uint8, "frame", ("height", "packed_width"), sharded=True, kinds=("masks",),
           hub=("sc:Text", "each observation's binary mask, bit-packed: height rows of ceil(width / 8) "
                "bytes, most significant bit first (numpy.packbits(mask, axis=-1))")),
-    Array("z", np.float64, "frame",  # camera position on the optical axis, m
+    Array("z", np.float64, "frame", kinds=("masks",),  # camera position on the optical axis, m
           hub=("sc:Float", "camera position (m) of each observation, ascending")),
     Array("depth", np.float64, "frame",  # object depth, m; NaN where unknown
           hub=("sc:Float", "object depth (m) at each observation; NaN where unknown")),
-    Array("area", np.int32, "frame", hub=("sc:Integer", "object pixels of each mask")),  # object pixels
-    Array("largest_area", np.int32, "frame"),  # pixels of the largest 8-connected region
-    Array("bbox", np.int32, "frame", (4,)),  # x0, y0, x1, y1 half-open; zeros when empty
+    Array("area", np.int32, "frame", hub=("sc:Integer", "object pixels of each mask"),  # object pixels
+          kinds=("masks",)),
+    Array("largest_area", np.int32, "frame", kinds=("masks",)),  # pixels of the largest 8-connected region
+    Array("bbox", np.int32, "frame", (4,), kinds=("masks",)),  # x0, y0, x1, y1 half-open; zeros when empty
+    Array("box", np.float64, "frame", (4,), kinds=("boxes",),  # x_c, y_c, w, h normalised; zeros: missed
+          hub=("sc:Float", "the object's detection box of each observation, [x_c, y_c, w, h] divided by "
+               "the image width (x_c, w) and height (y_c, h); all 0 for a missed detection")),
+    Array("move", np.float64, "frame", (3,), kinds=("boxes",),  # to the example's last frame, m
+          hub=("sc:Float", "the object's displacement (m) in x, y, z from each observation to its "
+               "example's last one, in the camera's axes (ODMD's camera movement); 0 at the last")),
     Array("frame_index", np.int64, "example", ("max_obs",), pad=-1),  # frame rows, z ascending, -1 after
     Array("d1", np.float64, "example",  # depth at the closest frame, m; NaN when unlabelled
           hub=("sc:Float", "label: depth (m) at the closest observation, z_1; NaN when unlabelled")),
@@ -66,9 +76,20 @@ ARRAYS = {a.name: a for a in (
 )}
 
 
-def arrays_per(per: str) -> list[Array]:
-    """The arrays with a row per frame (`per` "frame") or per example ("example"), in table order."""
-    return [a for a in ARRAYS.values() if a.per == per]
+def arrays_of(kind: str) -> dict[str, Array]:
+    """The arrays a store of `kind` holds, in table order."""
+    return {name: a for name, a in ARRAYS.items() if kind in a.kinds}
+
+
+def kind_of(raw: dict[str, Any]) -> str:
+    """The kind of a store from its (schema-valid) attributes: masks when they name none."""
+    return str(raw.get("kind", "masks"))
+
+
+def arrays_per(per: str, kind: str = "masks") -> list[Array]:
+    """The arrays of a store of `kind` with a row per frame (`per` "frame") or per example
+    ("example"), in table order."""
+    return [a for a in arrays_of(kind).values() if a.per == per]
 
 
 def shape_of(a: Array, rows: int, sizes: dict[str, int]) -> tuple[int, ...]:
@@ -107,6 +128,11 @@ class StoreAttrs:
     format_version: int = FORMAT_VERSION
     units: dict[str, str] = field(default_factory=lambda: dict(UNITS))
     created_by: str = f"odms-data {__version__}"
+    kind: str = "masks"
+
+    def __post_init__(self) -> None:
+        if self.kind != "masks":  # a store of masks reads and writes as before the kinds
+            self.format_version = VERSIONS[self.kind]
 
     @property
     def generator_version(self) -> int | None:
@@ -117,6 +143,8 @@ class StoreAttrs:
         d = asdict(self)
         d["image_size"] = list(self.image_size)
         d["oddities"] = [o.to_json() for o in self.oddities]
+        if self.kind == "masks":
+            del d["kind"]  # attributes of stores of masks stay as format version 1 wrote them
         return d
 
     @classmethod
@@ -154,7 +182,7 @@ def layout_problems(backend: Any, raw: dict[str, Any]) -> list[str]:
     H, W = raw["image_size"]
     sizes = {"height": H, "packed_width": packed_width(W), **dict.fromkeys(FREE_SIZES, -1)}  # -1: free
     problems = []
-    for a in ARRAYS.values():
+    for a in arrays_of(kind_of(raw)).values():
         arr = backend.array(a.name)
         shape, want = tuple(arr.shape), shape_of(a, rows[a.per], sizes)
         if -1 not in want and shape != want:
@@ -271,4 +299,16 @@ def stats_problems(
     out = np.nonzero((x0 < 0) | (y0 < 0) | (x1 > width) | (y1 > height) | (x0 > x1) | (y0 > y1))[0]
     if len(out):
         problems.append(f"bbox lies outside the image at frame(s) {_first(out)}")
+    return problems
+
+
+def box_problems(box: np.ndarray, move: np.ndarray) -> list[str]:
+    """Boxes and movements are finite. Nothing more: ODMD's perturbed detections reach past the
+    image's edge and even have a negative width (perturb-detection-val frame 23358); a missed
+    detection has width 0."""
+    bad = np.nonzero(~np.all(np.isfinite(box), axis=1))[0]
+    problems = [f"box is not finite at frame(s) {_first(bad)}"] * bool(len(bad))
+    moved = np.nonzero(~np.all(np.isfinite(move), axis=1))[0]
+    if len(moved):
+        problems.append(f"move is not finite at frame(s) {_first(moved)}")
     return problems

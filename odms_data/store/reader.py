@@ -14,13 +14,15 @@ from ..errors import InputError, StoreError
 from .backends import Backend, open_backend
 from .declared import store_problems
 from .format import (
-    ARRAYS,
     StoreAttrs,
+    arrays_of,
+    box_problems,
     d1_problems,
     decode_strings,
     depth_problems,
     frame_index_problems,
     id_problems,
+    kind_of,
     stats_problems,
     z_problems,
 )
@@ -36,7 +38,8 @@ _NUMBERED = re.compile(r"(.*)/(\d+)")  # an example id ending in its number: spl
 
 @dataclass
 class Example:
-    """One ODMS example: n masks with their camera positions, depths and label."""
+    """One example: n masks (or, from a store of boxes, n boxes) with their camera positions,
+    depths and label."""
 
     example_id: str
     source: str
@@ -44,7 +47,8 @@ class Example:
     frames: np.ndarray  # (n,) frame rows in the store
     z: np.ndarray  # (n,) m, ascending
     depth: np.ndarray  # (n,) m, NaN where unknown
-    masks: np.ndarray  # (n, H, W) bool
+    masks: np.ndarray  # (n, H, W) bool; (0, H, W) from a store of boxes
+    boxes: np.ndarray | None = None  # (n, 4) [x_c, y_c, w, h] normalised: a store of boxes only
 
     @property
     def n(self) -> int:
@@ -58,8 +62,9 @@ class Store:
         self.backend, self.path, self.attrs = backend, path, attrs
         self.format = backend.kind
         self.height, self.width = attrs.image_size
-        self._masks = backend.array("masks")
-        self._fast = ShardReader.open(path) if backend.kind == "zarr" else None
+        masks = "masks" in arrays_of(attrs.kind)
+        self._masks = backend.array("masks") if masks else None
+        self._fast = ShardReader.open(path) if masks and backend.kind == "zarr" else None
 
     # --- sizes -------------------------------------------------------------------------
     @property
@@ -74,7 +79,14 @@ class Store:
         return self.n_examples
 
     # --- cached small arrays -----------------------------------------------------------
+    @property
+    def kind(self) -> str:
+        """What the examples are made of: "masks" or "boxes" (format.KINDS)."""
+        return self.attrs.kind
+
     def _read(self, name: str) -> np.ndarray:
+        if name not in arrays_of(self.kind):
+            raise StoreError(f"{self.path}: a store of {self.kind} has no array '{name}'")
         try:
             arr = self.backend.array(name)
             data = np.asarray(arr[...])
@@ -120,6 +132,21 @@ class Store:
         return self._checked(depth, depth_problems(depth))
 
     @cached_property
+    def _boxes(self) -> tuple[np.ndarray, np.ndarray]:
+        box, move = self._read("box"), self._read("move")
+        return self._checked((box, move), box_problems(box, move))
+
+    @property
+    def box(self) -> np.ndarray:
+        """(F, 4) stored boxes [x_c, y_c, w, h] of a store of boxes."""
+        return self._boxes[0]
+
+    @property
+    def move(self) -> np.ndarray:
+        """(F, 3) stored movements of a store of boxes, to each example's last frame."""
+        return self._boxes[1]
+
+    @cached_property
     def _stats(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         area, largest, bbox = self._read("area"), self._read("largest_area"), self._read("bbox")
         self._checked(area, stats_problems(area, largest, bbox, self.height, self.width))
@@ -136,6 +163,11 @@ class Store:
     @property
     def bbox(self) -> np.ndarray:
         return self._stats[2]
+
+    @property
+    def empty_frames(self) -> np.ndarray:
+        """(F,) bool: frames without the object, an empty mask or a missed detection (width 0)."""
+        return self.box[:, 2] == 0 if self.kind == "boxes" else self.area == 0
 
     @cached_property
     def frame_index(self) -> np.ndarray:
@@ -205,6 +237,8 @@ class Store:
     # --- masks -------------------------------------------------------------------------
     def read_packed(self, start: int, stop: int) -> np.ndarray:
         """Packed masks of frames [start, stop)."""
+        if self._masks is None:
+            raise StoreError(f"{self.path}: a store of {self.kind} has no masks")
         try:
             return self._fast.read(start, stop) if self._fast else np.asarray(self._masks[start:stop])
         except Exception as e:
@@ -232,6 +266,10 @@ class Store:
         if not 0 <= i < self.n_examples:
             raise InputError(f"{self.path}: example row {i} is out of range 0..{self.n_examples - 1}")
         frames = self.frames_of(i)  # rows inside the store: frame_index is checked when read
+        if self.kind == "boxes":  # z: the camera's position on the optical axis from the last frame
+            return Example(self.example_ids[i], self.sources[i], float(self.d1[i]), frames,
+                           0.0 - self.move[frames, 2], self.depth[frames],
+                           np.zeros((0, self.height, self.width), bool), self.box[frames])
         return Example(
             example_id=self.example_ids[i],
             source=self.sources[i],
@@ -274,7 +312,7 @@ def open_store(path: str) -> Store:
             raise StoreError(
                 f"{path}: store is incomplete (an interrupted write?); re-run the command that made it"
             )
-        missing = sorted(set(ARRAYS) - backend.names())
+        missing = sorted(set(arrays_of(kind_of(raw))) - backend.names())
         if missing:
             raise StoreError(f"{path}: store lacks the array(s) {', '.join(missing)}")
         attrs = StoreAttrs.from_json(raw, str(path))

@@ -12,15 +12,17 @@ from .backends import open_backend
 from .declared import store_problems
 from .digest import recompute_digest
 from .format import (
-    ARRAYS,
     Z_ODDITY,
     _first,
+    arrays_of,
     attribute_problems,
+    box_problems,
     d1_problems,
     decode_strings,
     depth_problems,
     frame_index_problems,
     id_problems,
+    kind_of,
     stats_problems,
     z_problems,
 )
@@ -60,7 +62,7 @@ def validate(path: str, progress: Callable[[str, int, int], None] | None = None)
         report.problems += [f"attributes {p}" for p in attribute_problems(raw)]
         if raw.get("complete") is not True:
             report.problems.append("store is incomplete (an interrupted write?)")
-        missing = sorted(set(ARRAYS) - backend.names())
+        missing = sorted(set(arrays_of(kind_of(raw))) - backend.names())
         if missing:
             report.problems.append(f"missing array(s): {', '.join(missing)}")
         if report.problems:
@@ -101,21 +103,27 @@ def _check_content(store: Store, report: Report, progress: Callable[[str, int, i
         decode_strings(store.raw("source"))
     except UnicodeDecodeError as e:
         P.append(f"array 'source' holds invalid UTF-8 ({e})")
-    fi, z, depth, d1 = store.raw("frame_index"), store.raw("z"), store.raw("depth"), store.raw("d1")
+    fi, depth, d1 = store.raw("frame_index"), store.raw("depth"), store.raw("d1")
     index = frame_index_problems(fi, store.n_frames, name)
-    P += index + z_problems(z) + depth_problems(depth) + d1_problems(d1, store.attrs.counts["labelled"], name)
-    area, largest, bbox = store.raw("area"), store.raw("largest_area"), store.raw("bbox")
-    P += stats_problems(area, largest, bbox, store.height, store.width)
-    labelled = ~np.isnan(d1)
+    P += index + depth_problems(depth) + d1_problems(d1, store.attrs.counts["labelled"], name)
+    boxes = store.kind == "boxes"
+    if boxes:
+        P += box_problems(store.raw("box"), store.raw("move"))
+    else:
+        P += z_problems(store.raw("z"))
+        area, largest, bbox = store.raw("area"), store.raw("largest_area"), store.raw("bbox")
+        P += stats_problems(area, largest, bbox, store.height, store.width)
     if index or any("UTF-8" in p for p in P):
         return  # the frames of the examples, or their strings, are unknown
-    first = depth[fi[:, 0]]
-    with np.errstate(invalid="ignore"):
-        differ = np.nonzero(labelled & ~np.isnan(first) & (d1 != first))[0]
-    if len(differ):
-        i = int(differ[0])
-        P.append(f"d1 of example {name(i)} is {d1[i]}, but the depth at its first frame is {first[i]} "
-                 f"({len(differ)} such example(s))")
+    labelled_at = _check_labels(P, fi, depth, d1, boxes, name)
+    if boxes:
+        moved = np.nonzero(store.raw("move")[labelled_at].any(axis=1))[0]
+        if len(moved):
+            P.append(f"example {name(int(moved[0]))}: move at its last frame is not 0 "
+                     f"({len(moved)} such example(s))")
+        _check_digest(store, report, progress)
+        return
+    z = store.raw("z")
     n_obs = (fi >= 0).sum(axis=1)
     excused = {o.subject for o in store.attrs.oddities if o.kind == Z_ODDITY}
     zz = np.where(fi >= 0, z[np.maximum(fi, 0)], np.inf)
@@ -128,6 +136,21 @@ def _check_content(store: Store, report: Report, progress: Callable[[str, int, i
         report.warnings.append(f"example {recorded[0]}{more}: z is not strictly increasing (recorded oddity)")
     P += [f"example {eid}: z is not strictly increasing" for eid in rows if eid not in excused]
     _check_masks(store, report, progress)
+
+
+def _check_labels(P: list[str], fi: np.ndarray, depth: np.ndarray, d1: np.ndarray, boxes: bool,
+                  name: Callable[[int], str]) -> np.ndarray:
+    """Each label is the depth at its example's labelled frame: the first of a store of masks
+    (the closest), the last of one of boxes (ODMD's); returns those frame rows."""
+    labelled_at = fi[np.arange(len(fi)), (fi >= 0).sum(axis=1) - 1] if boxes else fi[:, 0]
+    at = depth[labelled_at]
+    with np.errstate(invalid="ignore"):
+        differ = np.nonzero(~np.isnan(d1) & ~np.isnan(at) & (d1 != at))[0]
+    if len(differ):
+        i = int(differ[0])
+        P.append(f"d1 of example {name(i)} is {d1[i]}, but the depth at its {'last' if boxes else 'first'} "
+                 f"frame is {at[i]} ({len(differ)} such example(s))")
+    return labelled_at
 
 
 def _check_masks(store: Store, report: Report, progress: Callable[[str, int, int], None] | None) -> None:
@@ -148,20 +171,31 @@ def _check_masks(store: Store, report: Report, progress: Callable[[str, int, int
         if progress:
             progress(report.path, start + len(block), store.n_frames)
 
-    try:
-        digest, _ = recompute_digest(store, visit)
-    except OdmsError as e:
-        report.problems.append(f"{e}; the digest could not be recomputed")
+    if not _check_digest(store, report, None, visit):
         return
     if wrong_stats:
         report.problems.append(
             f"stored area/largest_area/bbox differ from the masks at {len(wrong_stats)} frame(s), "
             f"first {_first(wrong_stats)}"
         )
+
+
+def _check_digest(store: Store, report: Report, progress: Callable[[str, int, int], None] | None,
+                  visit: Callable[[int, np.ndarray], None] | None = None) -> bool:
+    """The recomputed content digest against the recorded one and the split's manifest; False
+    when it could not be recomputed."""
+    try:
+        digest, _ = recompute_digest(store, visit)
+    except OdmsError as e:
+        report.problems.append(f"{e}; the digest could not be recomputed")
+        return False
+    if progress:
+        progress(report.path, store.n_frames, store.n_frames)
     report.digest = digest
     if digest != store.attrs.digest:
         report.problems.append(f"content digest {digest} differs from the recorded {store.attrs.digest}")
     _check_manifest(store, report, digest)
+    return True
 
 
 def _check_manifest(store: Store, report: Report, digest: str) -> None:

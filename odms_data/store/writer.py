@@ -23,7 +23,17 @@ from ..errors import InputError, OdmsError, StoreError, StoreExistsError, StoreL
 from ..interrupts import uninterrupted
 from ..outputs import DISK_FULL, Kind, Partial, check_replaceable, output_lock, refuse_existing, write_error
 from .backends import HDF5_MAGIC, Backend, detect_format, is_url, open_backend
-from .format import ARRAYS, ATTRS_KEY, StoreAttrs, arrays_per, encode_strings, format_of_name, shape_of
+from .format import (
+    ARRAYS,
+    ATTRS_KEY,
+    KINDS,
+    StoreAttrs,
+    arrays_of,
+    arrays_per,
+    encode_strings,
+    format_of_name,
+    shape_of,
+)
 from .masks import FrameStats, packed_width
 from .shard_writer import MaskSink
 
@@ -42,10 +52,13 @@ class Layout:
     frames_per_chunk: int  # frames per compressed mask chunk
     frames_per_shard: int  # frames per shard (and per chunk of the per-frame arrays)
     examples_per_chunk: int  # rows per chunk of the per-example arrays
+    kind: str = "masks"  # what the examples are made of (format.KINDS)
 
     def __post_init__(self) -> None:
         if self.n_frames < 1 or self.n_examples < 1:
             raise InputError("a store needs at least one example and one frame")
+        if self.kind not in KINDS:
+            raise InputError(f"a store holds one of {', '.join(KINDS)}, not {self.kind!r}")
         if self.frames_per_shard % self.frames_per_chunk:
             raise InputError("frames_per_shard must be a multiple of frames_per_chunk")
 
@@ -162,7 +175,7 @@ class StoreWriter:
             self.backend = b = open_backend(self.partial, "w", self.format)
             rows = {"frame": L.n_frames, "example": L.n_examples}
             per_chunk = {"frame": L.frames_per_shard, "example": L.examples_per_chunk}
-            for a in ARRAYS.values():
+            for a in arrays_of(L.kind).values():
                 shape = shape_of(a, rows[a.per], L.sizes)
                 chunks = (per_chunk[a.per], *shape[1:])
                 if a.sharded:
@@ -212,8 +225,8 @@ class StoreWriter:
         """Rows from `start` of every array per frame or per example (`per`) but the sharded masks,
         by name: a text array as a list of strings, a narrower matrix padded with the array's `pad`."""
         with uninterrupted():
-            self._created()
-            names = [a.name for a in arrays_per(per) if not a.sharded]
+            _, L = self._created()
+            names = [a.name for a in arrays_per(per, L.kind) if not a.sharded]
             if sorted(columns) != sorted(names):
                 raise StoreError(f"{self.path}: the {per} arrays are {', '.join(names)}, "
                                  f"not {', '.join(columns)}")
@@ -232,8 +245,10 @@ class StoreWriter:
     def commit(self, attrs: StoreAttrs) -> str:
         """Mark the store complete and move it into place; returns its path."""
         with uninterrupted():
+            backend, L = self._created()
+            if attrs.kind != L.kind:
+                raise StoreError(f"{self.path}: a store created for {L.kind} is committed as {attrs.kind}")
             attrs.complete = True
-            backend, _ = self._created()
             backend.write_attrs(attrs.to_json())
             backend.close()
             if self._partial is not None:

@@ -178,6 +178,24 @@ def test_shipped_entries_are_valid_and_match_the_published_all():
         33.3, 13.7, 36.6]
 
 
+def test_odmds_table_holds_the_published_figures_and_box_ls_computed_here():
+    entries = {e.name: e for e in load_entries(benchmark="odmd")}
+    assert {e.name for e in load_entries()}.isdisjoint(entries)  # the ODMS table shows none of them
+    published = ("DBox (ODMD)", "DBox_Abs (ODMD)", "Box_LS (ODMD, paper)")
+    assert [family_all(entries[n], "test") for n in published] == [4.47, 4.55, 11.83]
+    computed = entries["Box_LS (ODMD)"].results["test"]
+    paper = entries["Box_LS (ODMD, paper)"].results["test"]
+    assert computed.keys() == paper.keys()
+    sets = [d for d in paper if d != "all"]
+    assert {d: round(computed[d]["percent"], 2) for d in sets} == {d: paper[d]["percent"] for d in sets}
+    # ODMD's All is the mean of its rounded figures (11.825 -> 11.83); ours of the exact ones, 11.8246
+    assert computed["all"] == pytest.approx(paper["all"], abs=0.006)
+    board = render_markdown(list(entries.values()), benchmark="odmd")
+    assert "| Normal | Perturb motion | Perturb detection | Robot | All |" in board
+    page = (resource_dir("schemas").parent / "docs" / "LEADERBOARD.md").read_text()
+    assert board in page, "docs/LEADERBOARD.md is stale: paste `leaderboard --benchmark odmd` into it"
+
+
 def test_leaderboard_is_sorted_by_all_and_its_page_shows_it():
     board = render_markdown(load_entries())
     rows = [line for line in board.splitlines() if line.startswith("| ") and line[2].isdigit()]
