@@ -78,7 +78,8 @@ class _Stop(KeyboardInterrupt):
 
 
 def test_a_stopped_run_resumes_with_the_same_batches(tmp_path, val_store):
-    config = TrainConfig.recipe("dbox", iterations=6, batch_size=8, val_every=2, seed=5, val=(str(val_store),))
+    config = TrainConfig.recipe("dbox", iterations=6, batch_size=8, val_every=2, seed=5,
+                                val=(str(val_store),))
     train(tmp_path / "straight", config)
 
     def stop_after_4(s):
