@@ -1,7 +1,7 @@
 """What training, validation and prediction need of a family of networks, one entry per family:
 its network, its stream of generated training batches, a store's examples as its inputs, and
-its output read back as a depth. training.py, prediction.py and runtime.py call these and
-nothing family-specific; the recipe's defaults are plain data in variants.py.
+its output read back as a depth. training.py and prediction.py call these and nothing
+family-specific; the recipe's defaults are plain data in variants.py.
 
     odn   ODN (ECCV 2020) on masks and camera positions: odn.py, loaders/transforms.py
     dbox  DBox (CVPR 2021) on boxes and camera movements: dbox.py, loaders/box_transform.py
@@ -16,6 +16,7 @@ from dataclasses import replace
 import torch
 from torch import nn
 
+from ..errors import InputError
 from ..loaders.box_transform import BoxTransform
 from ..loaders.targets import depth
 from ..loaders.torch_loader import StoreDataset, StreamDataset
@@ -60,8 +61,6 @@ class Model(ABC):
 
     def load_file(self, path: str | os.PathLike[str]) -> nn.Module:
         """The network with the weights of a state dict file that is not a run's checkpoint."""
-        from ..errors import InputError
-
         raise InputError(f"{path}: {self.config.model} predicts from a training run's folder, not a weights "
                          "file")
 
