@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..protocol import evenly_spaced
 from .masks import _opencv
 from .reader import Store
 
@@ -64,19 +63,3 @@ def frame_boxes(store: Store, frames: np.ndarray) -> np.ndarray:
 def store_boxes(store: Store) -> np.ndarray:
     """(F, 4) ODMD boxes of every frame of `store`, in frame-row order."""
     return frame_boxes(store, np.arange(store.n_frames))
-
-
-def example_boxes(store: Store, rows: np.ndarray, n: int = 10) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(boxes (k, n, 4), move (k, n, 3), depth (k,)) of example rows `rows`, as ODMD's examples:
-    n evenly spaced frames, far to near, the object's displacement from each frame to the last, the
-    depth at the last."""
-    frames = []
-    for i in rows:
-        row = store.frames_of(int(i))
-        frames.append(row[evenly_spaced(0, len(row) - 1, n)][::-1])
-    flat = np.concatenate(frames)
-    boxes = frame_boxes(store, flat).reshape(len(rows), n, 4)
-    z = store.z[flat].reshape(len(rows), n)
-    move = np.zeros((len(rows), n, 3))
-    move[:, :, 2] = z[:, -1:] - z
-    return boxes, move, store.d1[np.asarray(rows)].astype(np.float64)
