@@ -32,8 +32,8 @@ import pandas as pd
 from odms_data.evaluation.ground_truth import data_locations, find_stores, load_truth
 from odms_data.evaluation.predictions import read_predictions, write_predictions
 from odms_data.evaluation.scoring import score
-from odms_data.evaluation.vosde import observation_columns, solve, vosde
-from odms_data.protocol import split_order
+from odms_data.evaluation.vosde import solve, vosde
+from odms_data.protocol import observation_columns, split_order
 from odms_data.store.masks import mask_stats
 from odms_data.store.reader import open_store
 

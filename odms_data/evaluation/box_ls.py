@@ -7,8 +7,8 @@ squares over the observations of
     [w_k, 1, 0] [d1, -c_w, -c_h]^T = w_k m_k,    [h_k, 0, 1] [d1, -c_w, -c_h]^T = h_k m_k,
 
 with m_k = z_1 - z_k the camera movement to the closest observation, gives the estimate d1.
-Boxes are ODMD's boxes of the masks (store/boxes.py). With more than N observations, N evenly
-spaced ones are used, as VOS-DE uses them.
+Boxes and movements are the store's box examples (store/boxes.py `example_boxes`), far to near.
+With more than N observations, N evenly spaced ones are used, as VOS-DE uses them.
 
 As in the authors' code: a box of zero width is a missing detection and takes the box of the
 nearest observation that has one (the farther one on a tie); an example whose A^T A is singular
@@ -28,10 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..protocol import evenly_spaced
-from ..store.boxes import frame_boxes
+from ..store.boxes import chosen_frames, example_boxes
 from ..store.reader import Store
-from .vosde import observation_columns
 
 DEFAULT_N_OBS = 10
 
@@ -88,49 +86,17 @@ def solve(boxes: np.ndarray, move: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return d1, bad
 
 
-def _window(row: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """The consecutive frame rows from an example's first to its last frame, when their z
-    ascends (a robot window, say); else the example's own frames."""
-    run = np.arange(row[0], row[-1] + 1)
-    return run if len(run) > len(row) and np.all(np.diff(z[run]) > 0) else row
-
-
-def chosen_frames(store: Store, n_obs: int, odmd_conversion: bool) -> list[np.ndarray]:
-    """Per example, the frame rows Box_LS uses, closest first (default) or farthest first (ODMD)."""
-    out = []
-    for i in range(store.n_examples):
-        row = store.frames_of(i)
-        if not odmd_conversion:
-            out.append(row[observation_columns(len(row), n_obs)])
-            continue
-        far_first = _window(row, store.z)[::-1]
-        n = len(far_first)
-        out.append(far_first if n <= n_obs else far_first[evenly_spaced(0, n - 1, n_obs)])
-    return out
-
-
 def box_ls(store: Store, n_obs: int = DEFAULT_N_OBS, odmd_conversion: bool = False) -> BoxLsResult:
     """Box_LS estimates for every example of `store`, from the boxes of its masks."""
     if n_obs < 2:
         raise InputError(f"--n-obs must be at least 2, got {n_obs}")
-    frames = chosen_frames(store, n_obs, odmd_conversion)
-    used = np.unique(np.concatenate(frames)) if frames else np.zeros(0, np.int64)
-    boxes_of = np.zeros((store.n_frames, 4))
-    boxes_of[used] = frame_boxes(store, used)
-    z = store.z
+    counts = np.array([len(f) for f in chosen_frames(store, n_obs, odmd_conversion)], np.int64)
     E = store.n_examples
     d1, unsolvable, missing = np.zeros(E), np.zeros(E, bool), np.zeros(E, bool)
-    counts = np.array([len(f) for f in frames])
     for k in np.unique(counts):
         rows = np.flatnonzero(counts == k)
-        f = np.stack([frames[r] for r in rows])  # (e, k)
-        boxes = boxes_of[f]
-        missing[rows] = (boxes[..., 2] == 0).any(axis=1)
-        if odmd_conversion:  # far first; the movements of the near-first order, as ODMD pairs them
-            move = np.zeros(f.shape)
-            move[:, :-1] = z[f[:, ::-1][:, :-1]] - z[f[:, :1]]
-        else:
-            move = z[f[:, :1]] - z[f]
-        d1[rows], unsolvable[rows] = solve(fill_missing(boxes, prefer_later=not odmd_conversion), move)
+        ex = example_boxes(store, rows, n_obs, odmd_conversion)  # far first: fill from the farther
+        missing[rows] = (ex.boxes[..., 2] == 0).any(axis=1)
+        d1[rows], unsolvable[rows] = solve(fill_missing(ex.boxes, prefer_later=False), ex.move[..., 2])
     d1[unsolvable] = 0.0
     return BoxLsResult(store.attrs.split, store.example_ids, d1, unsolvable, missing)

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..protocol import evenly_spaced
+from ..protocol import observation_columns
 from ..store.reader import Store
 
 DEFAULT_N_OBS = 10
@@ -47,13 +47,6 @@ class VosdeResult:
 
     def rows(self) -> list[tuple[str, str, float]]:
         return [(self.split, e, float(d)) for e, d in zip(self.example_ids, self.d1, strict=True)]
-
-
-def observation_columns(n: int, n_obs: int) -> np.ndarray:
-    """Which of n observations VOS-DE uses: all when n <= n_obs, else n_obs evenly spaced."""
-    if n <= n_obs:
-        return np.arange(n)
-    return evenly_spaced(0, n - 1, n_obs)
 
 
 def solve(sqrt_area: np.ndarray, dz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

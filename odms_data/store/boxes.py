@@ -11,12 +11,24 @@ The rule, measured on ODMD's own conversion of the ODMS release (docs/ODMD.md ha
 
 Frames whose mask is one region (largest_area == area) take their box from the stored `bbox`
 without decoding; the others decode their mask once.
+
+`example_boxes` gives whole examples as DBox and Box_LS take them (loaders/box_transform.py's
+convention): ODMD's orientation, frames far to near, the label the depth at the last (closest)
+frame, which for a mask store is its d1. The movement of frame k is the object's displacement
+from frame k to the last one: (0, 0, z_last - z_k), ODMS cameras moving along the optical axis
+only. With `odmd_conversion` the frames and movements are those of ODMD's converted ODMS sets
+(docs/ODMD.md): frames chosen far-first, robot windows from their far end, and movement k
+z_(n-1-k) - z_0, the near-first order's movements paired with the far-first boxes.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
+from ..errors import InputError
+from ..protocol import evenly_spaced, observation_columns
 from .masks import _opencv
 from .reader import Store
 
@@ -63,3 +75,64 @@ def frame_boxes(store: Store, frames: np.ndarray) -> np.ndarray:
 def store_boxes(store: Store) -> np.ndarray:
     """(F, 4) ODMD boxes of every frame of `store`, in frame-row order."""
     return frame_boxes(store, np.arange(store.n_frames))
+
+
+@dataclass(frozen=True)
+class BoxExamples:
+    """E box examples of n frames each, far to near: `boxes` (E, n, 4) [x_c, y_c, w, h]
+    normalised, `move` (E, n, 3) the object's displacement in x, y, z from each frame to the last
+    (m; the last row 0), `depth` (E,) the label at the last frame (m), and `frames` (E, n) the
+    store's frame rows they come from."""
+
+    boxes: np.ndarray
+    move: np.ndarray
+    depth: np.ndarray
+    frames: np.ndarray
+
+
+def _window(row: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """The consecutive frame rows from an example's first to its last frame, when their z
+    ascends (a robot window, say); else the example's own frames."""
+    run = np.arange(row[0], row[-1] + 1)
+    return run if len(run) > len(row) and np.all(np.diff(z[run]) > 0) else row
+
+
+def example_frames(store: Store, i: int, n_obs: int, odmd_conversion: bool) -> np.ndarray:
+    """The frame rows of example `i` that give its boxes: as VOS-DE chooses them, closest first
+    (default), or as ODMD's conversion chooses them, farthest first."""
+    row = store.frames_of(i)
+    if not odmd_conversion:
+        return row[observation_columns(len(row), n_obs)]
+    far_first = _window(row, store.z)[::-1]
+    n = len(far_first)
+    return far_first if n <= n_obs else far_first[evenly_spaced(0, n - 1, n_obs)]
+
+
+def chosen_frames(store: Store, n_obs: int, odmd_conversion: bool) -> list[np.ndarray]:
+    """`example_frames` of every example of `store`."""
+    return [example_frames(store, i, n_obs, odmd_conversion) for i in range(store.n_examples)]
+
+
+def example_boxes(store: Store, rows: np.ndarray | list[int], n_obs: int = 10,
+                  odmd_conversion: bool = False) -> BoxExamples:
+    """The box examples of example `rows` of `store`, far to near, min(frames, n_obs) frames each
+    (the same number for every row asked for)."""
+    rows = np.asarray(rows, np.int64)
+    chosen = [example_frames(store, int(i), n_obs, odmd_conversion) for i in rows]
+    counts = {len(f) for f in chosen}
+    if len(counts) > 1:
+        raise InputError(f"{store.path}: examples of {min(counts)} to {max(counts)} frames asked for "
+                         f"together with n_obs={n_obs}; ask for examples of one length at a time")
+    n = counts.pop() if counts else n_obs
+    f = np.stack(chosen) if chosen else np.zeros((0, n), np.int64)
+    if not odmd_conversion:
+        f = f[:, ::-1]  # near-first as chosen; far-first as ODMD orders them
+    used, inverse = np.unique(f, return_inverse=True)
+    boxes = frame_boxes(store, used)[inverse.reshape(f.shape)] if f.size else np.zeros((*f.shape, 4))
+    z = store.z
+    move = np.zeros((*f.shape, 3))
+    if odmd_conversion:  # the near-first order's movements, as ODMD pairs them
+        move[:, :-1, 2] = z[f[:, ::-1][:, :-1]] - z[f[:, :1]]
+    else:
+        move[:, :, 2] = z[f[:, -1:]] - z[f]
+    return BoxExamples(boxes, move, store.d1[rows].astype(np.float64), f)

@@ -12,8 +12,9 @@ from _stores import SIZE, make_store
 from click.testing import CliRunner
 
 from odms_data.cli import main
-from odms_data.evaluation.box_ls import box_ls, chosen_frames, fill_missing, solve
+from odms_data.evaluation.box_ls import box_ls, fill_missing, solve
 from odms_data.evaluation.predictions import read_predictions
+from odms_data.store.boxes import chosen_frames
 from odms_data.store.reader import open_store
 
 # ODMD's data/ folder (griffbr/ODMD): $ODMD_DATA, else ../shared/odmd/data beside the project.

@@ -9,7 +9,8 @@ from click.testing import CliRunner
 
 from odms_data.cli import main
 from odms_data.evaluation.predictions import read_predictions
-from odms_data.evaluation.vosde import observation_columns, solve, vosde
+from odms_data.evaluation.vosde import solve, vosde
+from odms_data.protocol import observation_columns
 from odms_data.simulate.generate_store import generate
 from odms_data.simulate.params import preset
 from odms_data.store.manifests import load_manifest

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 from _stores import SIZE, make_store
 
-from odms_data.store.boxes import frame_boxes, largest_region_rect, store_boxes
+from odms_data.errors import InputError
+from odms_data.store.boxes import example_boxes, frame_boxes, largest_region_rect, store_boxes
 from odms_data.store.reader import open_store
 
 
@@ -64,3 +65,42 @@ def test_box_lies_in_the_unit_square(tmp_path, where):
     boxes, _ = _boxes(tmp_path, [_mask(rect), _mask(rect)])
     xc, yc, w, h = boxes[0]
     assert 0 <= xc - w / 2 and xc + w / 2 <= 1 and 0 <= yc - h / 2 and yc + h / 2 <= 1
+
+
+def _sides(tmp_path):
+    """Two examples of squares shrinking with z: sides 40, 30, 24, 20 at z 1.0, 1.2, 1.7, 2.0."""
+    masks = [_mask((0, 0, s - 1, s - 1)) for s in (40, 30, 24, 20)]
+    z = [1.0, 1.2, 1.7, 2.0]
+    return make_store(tmp_path / "e.zarr", "ex", [{"z": z, "masks": masks, "d1": 0.5},
+                                                   {"z": [v + 1 for v in z], "masks": masks, "d1": 1.5}])
+
+
+def test_example_boxes_run_far_to_near_with_the_label_at_the_last_frame(tmp_path):
+    with open_store(_sides(tmp_path)) as s:
+        ex = example_boxes(s, [1, 0])
+        assert ex.frames.tolist() == [[7, 6, 5, 4], [3, 2, 1, 0]]
+        assert ex.depth.tolist() == [1.5, 0.5]
+        assert (ex.boxes[0, :, 2] * SIZE).tolist() == [19, 23, 29, 39]  # far (small) to near (large)
+        np.testing.assert_allclose(ex.move[:, :, 2], [[-1.0, -0.7, -0.2, 0.0]] * 2)
+        assert not ex.move[:, :, :2].any() and not ex.move[:, -1].any()
+        # the depth of each frame is the label minus its movement, as ODMD's convention has it
+        frame_depth = ex.depth[:, None] - ex.move[:, :, 2]
+        np.testing.assert_allclose(frame_depth, [[2.5, 2.2, 1.7, 1.5], [1.5, 1.2, 0.7, 0.5]])
+
+
+def test_example_boxes_with_odmds_conversion_pair_movements_as_odmd_did(tmp_path):
+    with open_store(_sides(tmp_path)) as s:
+        plain, odmd = example_boxes(s, [0]), example_boxes(s, [0], odmd_conversion=True)
+    np.testing.assert_array_equal(plain.boxes, odmd.boxes)
+    np.testing.assert_allclose(odmd.move[0, :, 2], [-1.0, -0.8, -0.3, 0.0])  # z_(n-1-k) - z_0, not z_3 - z_k
+
+
+def test_example_boxes_choose_n_obs_frames_and_refuse_mixed_lengths(tmp_path):
+    masks = [_mask((0, 0, 9, 9))] * 5
+    path = make_store(tmp_path / "m.zarr", "mixed", [{"z": [1, 2, 3, 4, 5], "masks": masks, "d1": 1.0},
+                                                      {"z": [1, 2, 3], "masks": masks[:3], "d1": 1.0}])
+    with open_store(path) as s:
+        assert example_boxes(s, [0], n_obs=3).frames.tolist() == [[4, 2, 0]]
+        assert example_boxes(s, [0, 1], n_obs=3).boxes.shape == (2, 3, 4)
+        with pytest.raises(InputError, match="examples of 3 to 5 frames"):
+            example_boxes(s, [0, 1])
