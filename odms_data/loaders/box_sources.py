@@ -80,9 +80,9 @@ class StoreBoxExamples:
         bad = rows[(rows < 0) | (rows >= self._len)]
         if len(bad):
             raise InputError(f"{self.path}: example row {bad[0]} is out of range 0..{self._len - 1}")
-        boxes, move, depth = example_boxes(self.store, rows)
+        e = example_boxes(self.store, rows, self.transform.n_obs)
         try:
-            made = self.transform.batch(boxes, move, depth)
+            made = self.transform.batch(e.boxes, e.move, e.depth)
         except InputError as e:
             raise InputError(f"{self.path}: {e}") from None
         out = {}
