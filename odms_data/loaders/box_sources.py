@@ -1,14 +1,18 @@
-"""Freshly generated box examples (simulate/box_examples.py) as DBox's inputs
-(box_transform.py): the box kind's source for every loader's stream."""
+"""Box examples as DBox's inputs (box_transform.py): freshly generated ones
+(simulate/box_examples.py), the box kind's source for every loader's stream, and a store's
+(store/boxes.py: any store, of boxes or of masks through the box rule)."""
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from ..errors import InputError
 from ..simulate.box_examples import BOX_PRESETS, BoxParams, sample_box_examples
+from ..store.boxes import example_boxes
+from ..store.reader import Store, open_store
 from .box_transform import DBOX_TRANSFORM, BoxTransform
 
 
@@ -38,3 +42,51 @@ class GeneratedBoxExamples:
         index = empty((len(a),), np.dtype(np.int64))
         index[...] = indices
         return {**out, "index": index}
+
+
+class StoreBoxExamples:
+    """The examples of the store at `path` as box examples (store/boxes.py), transformed;
+    `example(i)` by row. The store is opened lazily in each process, as sources.StoreExamples."""
+
+    def __init__(self, path: str, transform: BoxTransform = DBOX_TRANSFORM) -> None:
+        self.path, self.transform = str(path), transform
+        self._store: Store | None = None
+        self._pid: int | None = None
+        self._len = len(self.store)
+
+    @property
+    def store(self) -> Store:
+        if self._store is None or self._pid != os.getpid():
+            self._store, self._pid = open_store(self.path), os.getpid()
+        return self._store
+
+    def __getstate__(self) -> dict:
+        return {**self.__dict__, "_store": None, "_pid": None}
+
+    def __len__(self) -> int:
+        return self._len
+
+    def example(self, i: int) -> dict[str, np.ndarray]:
+        return {key: a[0] for key, a in self.batch([i]).items()}
+
+    def examples(self, indices: Sequence[int] | np.ndarray) -> list[dict[str, np.ndarray]]:
+        made = self.batch(indices)
+        return [{key: a[k] for key, a in made.items()} for k in range(len(indices))]
+
+    def batch(self, indices: Sequence[int] | np.ndarray,
+              empty: Callable[[tuple[int, ...], np.dtype], np.ndarray] = np.empty) -> dict[str, np.ndarray]:
+        """The examples at store rows `indices`, in arrays made by `empty` (as sources.collate)."""
+        rows = np.asarray(indices, np.int64)
+        bad = rows[(rows < 0) | (rows >= self._len)]
+        if len(bad):
+            raise InputError(f"{self.path}: example row {bad[0]} is out of range 0..{self._len - 1}")
+        e = example_boxes(self.store, rows, self.transform.n_obs)
+        try:
+            made = self.transform.batch(e.boxes, e.move, e.depth)
+        except InputError as e:
+            raise InputError(f"{self.path}: {e}") from None
+        out = {}
+        for key, a in {**made, "index": rows}.items():
+            out[key] = empty(a.shape, a.dtype)
+            out[key][...] = a
+        return out

@@ -14,8 +14,9 @@ The inputs, in float32 throughout, in the authors' order of operations:
    (the same frames as step 1 when n == n_obs, the only case ODMD's sets and generator have).
 3. `normalized` (DBox; not DBox_Abs): movements and label divided by `norm`, the length of the
    first observation's movement, so the network predicts depth in units of the camera's travel.
-4. `inputs` (n_obs, 7): [box, movement] per observation, the movement then replaced by its change
-   from the previous observation (0 for the first).
+4. `inputs` (n_obs, 7): [box, movement] per observation; with `relative` (DBox, not DBox_Abs:
+   the authors' `sequence_dist`) the movement then replaced by its change from the previous
+   observation (0 for the first).
 """
 
 from __future__ import annotations
@@ -49,6 +50,7 @@ class BoxTransform:
 
     n_obs: int = DBOX_OBS
     normalized: bool = True
+    relative: bool = True
 
     def __post_init__(self) -> None:
         if self.n_obs < 2:
@@ -88,8 +90,9 @@ class BoxTransform:
                                  "cannot be normalized")
             x[:, :, 4:] *= (1 / norm)[:, None, None]
             label = label / norm
-        x[:, 1:, 4:] = np.diff(x[:, :, 4:], axis=1)
-        x[:, 0, 4:] = 0
+        if self.relative:
+            x[:, 1:, 4:] = np.diff(x[:, :, 4:], axis=1)
+            x[:, 0, 4:] = 0
         return {"inputs": x, "depth_norm": label, "norm": norm, "depth": depth.astype(np.float32)}
 
 

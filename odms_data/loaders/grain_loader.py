@@ -35,7 +35,7 @@ from ..simulate.params import GeneratorParams
 from .box_sources import GeneratedBoxExamples
 from .box_transform import BoxTransform
 from .reused_arrays import ReusedArrays
-from .sources import STANDARD, GeneratedExamples, StoreExamples, generated_examples, stream_indices
+from .sources import STANDARD, GeneratedExamples, generated_examples, store_examples, stream_indices
 from .transforms import PAPER_TRANSFORM, Transform
 
 try:
@@ -54,8 +54,8 @@ class StoreSource:
     """The examples of the store at `path` as a grain random-access data source (len and row
     indexing); picklable, the store is opened in each worker process on first use."""
 
-    def __init__(self, path: str, transform: Transform = PAPER_TRANSFORM) -> None:
-        self.examples = StoreExamples(path, transform)
+    def __init__(self, path: str, transform: Transform | BoxTransform = PAPER_TRANSFORM) -> None:
+        self.examples = store_examples(path, transform)
 
     def __len__(self) -> int:
         return len(self.examples)

@@ -23,7 +23,7 @@ from ..errors import InputError
 from ..parallel import ordered_map, worker_pool
 from ..simulate.box_examples import BoxParams
 from ..simulate.params import GeneratorParams
-from .box_sources import GeneratedBoxExamples
+from .box_sources import GeneratedBoxExamples, StoreBoxExamples
 from .box_transform import BoxTransform
 from .reused_arrays import ReusedArrays
 from .shared_batches import Arena, BlockPool
@@ -33,15 +33,17 @@ from .sources import (
     Indices,
     StoreExamples,
     generated_examples,
+    store_examples,
     store_order,
     stream_indices,
 )
 from .transforms import PAPER_TRANSFORM, Transform
 
-_source: StoreExamples | GeneratedExamples | GeneratedBoxExamples  # a worker's source (set by _set_source)
+Source = StoreExamples | StoreBoxExamples | GeneratedExamples | GeneratedBoxExamples
+_source: Source  # a worker's source (set by _set_source)
 
 
-def _set_source(source: StoreExamples | GeneratedExamples | GeneratedBoxExamples) -> None:
+def _set_source(source: Source) -> None:
     """Worker initialiser: the source travels once, so a store is opened once per worker."""
     global _source
     _source = source
@@ -58,7 +60,7 @@ class Batches:
     example indices are `plan`; iterate it again to get the same batches again."""
 
     def __init__(
-        self, source: StoreExamples | GeneratedExamples | GeneratedBoxExamples, plan: Sequence[Indices],
+        self, source: Source, plan: Sequence[Indices],
         workers: int = 0,
     ) -> None:
         if workers < 0:
@@ -110,7 +112,7 @@ def store_batches(
     path: str,
     batch_size: int,
     *,
-    transform: Transform = PAPER_TRANSFORM,
+    transform: Transform | BoxTransform = PAPER_TRANSFORM,
     shuffle: bool = False,
     seed: int = 0,
     epoch: int = 0,
@@ -119,7 +121,7 @@ def store_batches(
 ) -> Batches:
     """Batches of the store at `path`, in row order or shuffled by (seed, epoch)."""
     _check_batch_size(batch_size)
-    source = StoreExamples(path, transform)
+    source = store_examples(path, transform)
     order = store_order(len(source), shuffle, seed, epoch)
     stop = len(order) - len(order) % batch_size if drop_last else len(order)
     plan = [order[i : i + batch_size] for i in range(0, stop, batch_size)]

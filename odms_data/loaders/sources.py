@@ -21,7 +21,7 @@ from ..simulate.params import PRESETS, GeneratorParams
 from ..simulate.shrink import shrink_packed
 from ..store.masks import unpack
 from ..store.reader import Store, open_store
-from .box_sources import GeneratedBoxExamples
+from .box_sources import GeneratedBoxExamples, StoreBoxExamples
 from .box_transform import DBOX_TRANSFORM, BoxTransform
 from .transforms import PAPER_TRANSFORM, Transform
 
@@ -192,6 +192,15 @@ def generated_examples(
     if isinstance(transform, BoxTransform):
         raise InputError("mask examples take a Transform; a BoxTransform needs box generator parameters")
     return GeneratedExamples(params, seed, transform, direct)
+
+
+def store_examples(path: str, transform: Transform | BoxTransform = PAPER_TRANSFORM
+                   ) -> StoreExamples | StoreBoxExamples:
+    """The store's source for the kind of input `transform` makes: ODN's from masks (Transform) or
+    DBox's from boxes (BoxTransform: a store of boxes, or of masks through the box rule)."""
+    if isinstance(transform, BoxTransform):
+        return StoreBoxExamples(path, transform)
+    return StoreExamples(path, transform)
 
 
 def stream_indices(batch: int, batch_size: int, batches_per_epoch: int, epoch: int) -> range:

@@ -27,7 +27,7 @@ from ..simulate.box_examples import BoxParams
 from ..simulate.params import GeneratorParams
 from .box_transform import BoxTransform
 from .shared_batches import BlockLayout, received_arrays, worker_blocks
-from .sources import STANDARD, StoreExamples, generated_examples, stream_indices
+from .sources import STANDARD, generated_examples, store_examples, stream_indices
 from .transforms import PAPER_TRANSFORM, Transform
 
 try:
@@ -42,12 +42,12 @@ def to_tensors(arrays: dict[str, np.ndarray]) -> dict[str, torch.Tensor]:
 
 
 class StoreDataset(Dataset):
-    """Example i of the store at `path` as a dict of tensors; the store is opened in each worker
-    on first use. Shuffle reproducibly with DataLoader(..., shuffle=True, generator=torch.Generator()
-    .manual_seed(seed))."""
+    """Example i of the store at `path` as a dict of tensors (ODN's inputs, or DBox's with a
+    BoxTransform); the store is opened in each worker on first use. Shuffle reproducibly with
+    DataLoader(..., shuffle=True, generator=torch.Generator().manual_seed(seed))."""
 
-    def __init__(self, path: str, transform: Transform = PAPER_TRANSFORM) -> None:
-        self.examples = StoreExamples(path, transform)
+    def __init__(self, path: str, transform: Transform | BoxTransform = PAPER_TRANSFORM) -> None:
+        self.examples = store_examples(path, transform)
 
     def __len__(self) -> int:
         return len(self.examples)

@@ -29,7 +29,6 @@ from .. import safe_json
 from .._version import __version__
 from ..errors import InputError, OdmsError
 from ..outputs import Kind, replaced_via_partial
-from ..simulate.params import PRESETS
 from ..store.manifests import load_manifest, split_names
 from .variants import variant
 
@@ -47,8 +46,8 @@ AddRow = Callable[[int, float, str, float, float], None]  # (iteration, seconds,
 class TrainConfig:
     """What a run trains, on what, and how: two runs of one config see the same batches.
 
-    `val`: the validation stores (paths); the best checkpoint is the one with the lowest mean of
-    their mean percent errors."""
+    `val`: the validation stores (paths; training needs one at least); the best checkpoint is the
+    one with the lowest mean of their mean percent errors."""
 
     model: str = "odn-l"
     radial: bool = False
@@ -62,7 +61,7 @@ class TrainConfig:
     val: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
-        variant(self.model)
+        v = variant(self.model)
         problems = [
             f"{name} must be at least {least}, got {getattr(self, name)}"
             for name, least in (("n_obs", 2), ("seed", 0), ("iterations", 1), ("batch_size", 1),
@@ -73,17 +72,27 @@ class TrainConfig:
             for name, most in (("n_obs", MAX_OBS), ("batch_size", MAX_BATCH), ("iterations", MAX_ITERATIONS))
             if getattr(self, name) > most
         ]
-        if self.preset not in PRESETS:
-            problems.append(f"unknown preset '{self.preset}' (choose from {', '.join(PRESETS)})")
+        if self.preset not in v.recipe.presets:
+            problems.append(f"preset '{self.preset}' is not one of {self.model}'s stream (choose from "
+                            f"{', '.join(v.recipe.presets)})")
+        if self.radial and not v.recipe.radial:
+            problems.append(f"{self.model} takes no radial image")
         if not self.lr > 0:
             problems.append(f"lr must be positive, got {self.lr}")
-        if not self.val:
-            problems.append("give at least one validation store")
         problems += [f"seed {self.seed} generates split {name} (splits/{name}.json): a stream of it "
                      "would train on evaluation examples; choose another seed"
                      for name in _splits_of_seed(self.seed)]
         if problems:
             raise InputError("training configuration: " + "; ".join(problems))
+
+    @classmethod
+    def recipe(cls, model: str, **given: Any) -> TrainConfig:
+        """The config of `model` with its authors' recipe (variants.Recipe) where `given` has no
+        value (or None)."""
+        r = variant(model).recipe
+        defaults = {"preset": r.preset, "iterations": r.iterations, "batch_size": r.batch_size, "lr": r.lr,
+                    "val_every": r.val_every}
+        return cls(model=model, **{**defaults, **{k: v for k, v in given.items() if v is not None}})
 
     def to_json(self) -> dict[str, Any]:
         return {**asdict(self), "val": list(self.val)}

@@ -1,5 +1,5 @@
 """What training and prediction share to run a network: the device, a store's examples as batches
-on it, the forward pass and the depths it means, and a checkpoint read back."""
+on it, and a checkpoint read back (models.py: the network, its inputs and the depths it means)."""
 
 from __future__ import annotations
 
@@ -7,18 +7,13 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import torch
-from torch.utils.data import DataLoader
+from torch.utils.data import DataLoader, Dataset
 
 from ..errors import InputError, OdmsError
-from ..loaders.targets import depth
-from ..loaders.torch_loader import StoreDataset
-from . import odn
 from .checkpoint import Checkpoint
-from .run_folder import TrainConfig
-from .variants import Variant
+from .models import Batch
 
 EVAL_BATCH = 256  # examples a forward pass in evaluation
-Batch = dict[str, torch.Tensor]  # a loader batch: network inputs and labels by name
 
 
 def pick_device(name: str | None) -> torch.device:
@@ -38,26 +33,14 @@ def pick_device(name: str | None) -> torch.device:
     return device
 
 
-def outputs_and_depths(model: torch.nn.Module, v: Variant, batch: Batch) -> tuple[torch.Tensor, torch.Tensor]:
-    """The network's outputs for a batch (on the model's device) and the depths they mean (float64:
-    d1 = s span / (1 - s) magnifies float32 rounding where the scale s is near 1)."""
-    out = model(*odn.inputs(batch, v))
-    return out, depth(v.label, out.detach().double(), batch["dz"][:, -1].double())
-
-
 def to_device(batch: Batch, device: torch.device) -> Batch:
     return {k: t.to(device, non_blocking=True) for k, t in batch.items()}
-
-
-def store_dataset(path: str, config: TrainConfig) -> StoreDataset:
-    """The store's examples as the network's inputs; its open store is `.examples.store`."""
-    return StoreDataset(path, odn.transform(config.n_obs, config.radial))
 
 
 WORKER_ERROR = "in DataLoader worker process"  # how torch says an exception came from a worker
 
 
-def eval_batches(dataset: StoreDataset, workers: int, pin: bool) -> Iterator[Batch]:
+def eval_batches(dataset: Dataset, workers: int, pin: bool) -> Iterator[Batch]:
     """The store's examples as network inputs, in row order, EVAL_BATCH at a time. A problem a
     worker meets (a damaged chunk) is raised with its own one-line message: torch raises it again
     with the worker's traceback as its message."""

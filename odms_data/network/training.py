@@ -1,13 +1,15 @@
-"""The paper's training recipe for ODN, on the endless stream of generated examples.
+"""The authors' training recipe for ODN and DBox, on the endless stream of generated examples.
 
-As the paper (section 4) and the authors' released demo train it: Adam with learning rate 1e-3,
-batches of 512 freshly generated examples, an L1 loss between the output and the variant's label
-(loaders/targets.py), 5,000 iterations. Every `val_every` iterations (the paper: 10) and at the
-last, the network is evaluated on the validation stores; `best.pt` keeps the weights whose mean
-of the stores' mean percent errors is lowest, `best-SPLIT.pt` those lowest on each store (the
-authors picked a checkpoint per set so), `last.pt` what a resumed run needs (weights, Adam's
-state, the random state, the iteration). The stream's batch b depends only on (preset, seed,
-n_obs, batch size, b), so a run resumed from last.pt sees exactly the batches it would have seen.
+As the papers and the authors' released demos train them: Adam with learning rate 1e-3, batches
+of 512 freshly generated examples, an L1 loss between the output and the variant's label
+(loaders/targets.py, loaders/box_transform.py); 5,000 iterations for ODN, 100,000 for DBox
+(variants.py holds each recipe, models.py what differs between the networks). Every `val_every`
+iterations (ODN's paper: 10) and at the last, the network is evaluated on the validation stores;
+`best.pt` keeps the weights whose mean of the stores' mean percent errors is lowest,
+`best-SPLIT.pt` those lowest on each store (the authors picked a checkpoint per set so),
+`last.pt` what a resumed run needs (weights, Adam's state, the random state, the iteration).
+The stream's batch b depends only on (preset, seed, n_obs, batch size, b), so a run resumed from
+last.pt sees exactly the batches it would have seen.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from __future__ import annotations
 import io
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -24,23 +26,11 @@ from torch.utils.data import DataLoader
 
 from ..errors import InputError
 from ..evaluation.metrics import percent_errors
-from ..loaders.torch_loader import StreamDataset
 from ..outputs import output_lock, replaced_via_partial
-from ..simulate.params import PRESETS, GeneratorParams
-from . import odn
 from .checkpoint import Checkpoint
-from .odn import ODN
+from .models import Batch, Model, model_of
 from .run_folder import BEST, LAST, RUN_KIND, TRAIN, VAL, AddRow, RunFolder, TrainConfig, best_of
-from .runtime import (
-    Batch,
-    eval_batches,
-    outputs_and_depths,
-    pick_device,
-    read_checkpoint,
-    store_dataset,
-    to_device,
-)
-from .variants import Variant, variant
+from .runtime import eval_batches, pick_device, read_checkpoint, to_device
 
 
 @dataclass
@@ -87,23 +77,16 @@ class Status:
         return (self.iterations - self.iteration) * per_step + validations_left * per_validation
 
 
-def stream_params(config: TrainConfig) -> GeneratorParams:
-    """The generator's parameters for the stream: the preset's (10 observations, of which the
-    network sees n_obs evenly spaced ones, as the authors' demo does), more when n_obs asks."""
-    params = PRESETS[config.preset]
-    return params if config.n_obs <= params.n_obs else replace(params, n_obs=config.n_obs)
-
-
 class Validation:
-    """The validation stores' network inputs, read once and kept on the device (about 0.5 MB an
-    example at n = 10); calling it evaluates a network on them."""
+    """The validation stores' network inputs, read once and kept on the device (ODN's: about 0.5 MB
+    an example at n = 10); calling it evaluates a network on them."""
 
-    def __init__(self, config: TrainConfig, device: torch.device, workers: int) -> None:
-        self.variant = variant(config.model)
-        keep = ["masks", "radial", self.variant.distances, self.variant.label, "dz", "d1"]
+    def __init__(self, model: Model, device: torch.device, workers: int) -> None:
+        self.model = model
+        keep = model.kept()
         self.stores: dict[str, list[Batch]] = {}
-        for path in config.val:
-            dataset = store_dataset(path, config)  # the store opened once, its batches read from it
+        for path in model.config.val:
+            dataset = model.store_dataset(path)  # the store opened once, its batches read from it
             with dataset.examples.store as s:
                 split, labelled = s.attrs.split, int(np.isfinite(s.d1).sum())
                 if split in self.stores or split in (TRAIN, VAL):
@@ -115,20 +98,21 @@ class Validation:
                 self.stores[split] = [to_device({k: b[k] for k in keep if k in b}, device) for b in batches]
 
     @torch.inference_mode()
-    def __call__(self, model: ODN) -> dict[str, tuple[float, float]]:
+    def __call__(self, net: torch.nn.Module) -> dict[str, tuple[float, float]]:
         """{split: (L1 loss, mean percent error)} over each store's labelled examples."""
-        model.eval()
+        net.eval()
         out = {}
+        label, truth = self.model.variant.label, self.model.truth
         for split, batches in self.stores.items():
             losses, errors = [], []
             for b in batches:
-                output, d = outputs_and_depths(model, self.variant, b)
-                labelled = torch.isfinite(b["d1"])
-                losses.append((output - b[self.variant.label]).abs()[labelled].cpu().numpy())
-                truth = b["d1"][labelled].double()
-                errors.append(percent_errors(d[labelled].cpu().numpy(), truth.cpu().numpy()))
+                output, d = self.model.outputs_and_depths(net, b)
+                labelled = torch.isfinite(b[truth])
+                losses.append((output - b[label]).abs()[labelled].cpu().numpy())
+                known = b[truth][labelled].double()
+                errors.append(percent_errors(d[labelled].cpu().numpy(), known.cpu().numpy()))
             out[split] = (float(np.concatenate(losses).mean()), float(np.concatenate(errors).mean()))
-        model.train()
+        net.train()
         return out
 
 
@@ -158,7 +142,9 @@ def train(
 
 def _train(path: str | Path, config: TrainConfig, workers: int, device: str | None, overwrite: bool,
            report: Callable[[Status], None]) -> Status:
-    folder, v, dev = RunFolder(path), variant(config.model), pick_device(device)
+    if not config.val:
+        raise InputError("training configuration: give at least one validation store")
+    folder, m, dev = RunFolder(path), model_of(config), pick_device(device)
     status = Status(0, config.iterations, config.batch_size, 0, 0.0, str(dev), val_every=config.val_every)
     saved = read_checkpoint(folder.file(LAST)) if folder.check(config, overwrite) else None
     if saved:
@@ -167,36 +153,34 @@ def _train(path: str | Path, config: TrainConfig, workers: int, device: str | No
         status.best_per_set = dict(saved.best_per_set or {})
     if status.iteration >= config.iterations:
         return status
-    validation = Validation(config, dev, workers)  # reads the stores: their problems show before any write
+    validation = Validation(m, dev, workers)  # reads the stores: their problems show before any write
     folder.create(config, overwrite)
     torch.manual_seed(config.seed)
-    model = odn.build(v, config.n_obs, config.radial).to(dev)
-    optimizer = torch.optim.Adam(model.parameters(), lr=config.lr)
+    net = m.build().to(dev)
+    optimizer = torch.optim.Adam(net.parameters(), lr=config.lr)
     spent = 0.0  # training seconds up to the checkpoint resumed from
     if saved:
         adam, rng, spent = saved.resume_state(str(folder.file(LAST)))
-        model.load_state_dict(saved.model)
+        net.load_state_dict(saved.model)
         optimizer.load_state_dict(adam)
         torch.set_rng_state(rng)
         if dev.type == "cuda" and saved.cuda_rng is not None:
             torch.cuda.set_rng_state(saved.cuda_rng, dev)
-    stream = StreamDataset(config.batch_size, config.iterations, params=stream_params(config),
-                           seed=config.seed, transform=odn.transform(config.n_obs, config.radial),
-                           start=status.iteration)
+    stream = m.stream(start=status.iteration)
     # its own generator: a DataLoader draws a base seed, from the global one (dropout's) by default
     loader = DataLoader(stream, batch_size=None, num_workers=workers, pin_memory=dev.type == "cuda",
                         generator=torch.Generator().manual_seed(config.seed))
-    model.train()
+    net.train()
     start = time.perf_counter()
     with folder.curves(upto=status.iteration) as add:
         for it, batch in enumerate(loader, status.iteration + 1):
-            _step(model, optimizer, v, to_device(batch, dev), status)
+            _step(m, net, optimizer, to_device(batch, dev), status)
             status.iteration, status.seconds = it, time.perf_counter() - start
             if it == status.started_at + 1:
                 status.first_seconds = status.seconds
             add(it, spent + status.seconds, TRAIN, status.loss, status.train_error)
             if it % config.val_every == 0 or it == config.iterations:
-                _validate(folder, model, optimizer, validation, status, add, spent + status.seconds, dev)
+                _validate(folder, net, optimizer, validation, status, add, spent + status.seconds, dev)
                 validated = time.perf_counter() - start
                 status.val_seconds += validated - status.seconds
                 status.validations += 1
@@ -205,18 +189,20 @@ def _train(path: str | Path, config: TrainConfig, workers: int, device: str | No
     return status
 
 
-def _step(model: ODN, optimizer: torch.optim.Optimizer, v: Variant, batch: Batch, status: Status) -> None:
-    output, d = outputs_and_depths(model, v, batch)
-    loss = (output - batch[v.label]).abs().mean()
+def _step(m: Model, net: torch.nn.Module, optimizer: torch.optim.Optimizer, batch: Batch,
+          status: Status) -> None:
+    output, d = m.outputs_and_depths(net, batch)
+    loss = (output - batch[m.variant.label]).abs().mean()
     optimizer.zero_grad(set_to_none=True)
     loss.backward()
     optimizer.step()
     status.loss = loss.item()
-    status.train_error = float(percent_errors(d.cpu().numpy(), batch["d1"].double().cpu().numpy()).mean())
+    truth = batch[m.truth].double().cpu().numpy()
+    status.train_error = float(percent_errors(d.cpu().numpy(), truth).mean())
 
 
-def _validate(folder: RunFolder, model: ODN, optimizer: torch.optim.Optimizer, validation: Validation,
-              status: Status, add: AddRow, seconds: float, dev: torch.device) -> None:
+def _validate(folder: RunFolder, model: torch.nn.Module, optimizer: torch.optim.Optimizer,
+              validation: Validation, status: Status, add: AddRow, seconds: float, dev: torch.device) -> None:
     """Evaluate on the validation stores, log it, keep the best weights, checkpoint the run."""
     results = validation(model)
     for split, (loss, error) in results.items():

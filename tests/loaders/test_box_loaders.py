@@ -1,5 +1,6 @@
 """Box examples through every loader's stream: DBox's inputs, the same batches in NumPy (in
-process and with workers), PyTorch (with DataLoader workers), TensorFlow and grain for one seed."""
+process and with workers), PyTorch (with DataLoader workers), TensorFlow and grain for one seed;
+and a store's examples as box inputs, alike in every loader."""
 
 from __future__ import annotations
 
@@ -57,3 +58,33 @@ def test_transform_and_kind_must_agree():
         stream_batches(SIZE, 1, params=ODMD, transform=BoxTransform(n_obs=12))
     absolute = next(iter(stream_batches(SIZE, 1, params=ODMD, transform=BoxTransform(normalized=False))))
     assert np.all(absolute["norm"] == 1) and np.array_equal(absolute["depth_norm"], absolute["depth"])
+
+
+def test_a_mask_store_gives_box_inputs_alike_in_every_framework(tmp_path):
+    """A store of masks read as box examples (store/boxes.example_boxes) through each loader."""
+    from odms_data.loaders import store_batches
+    from odms_data.loaders.grain_loader import StoreSource
+    from odms_data.loaders.tf_loader import from_store
+    from odms_data.loaders.torch_loader import StoreDataset
+    from odms_data.simulate.generate_store import generate
+    from odms_data.simulate.params import GeneratorParams
+    from odms_data.store.boxes import example_boxes
+    from odms_data.store.reader import open_store
+
+    path = str(tmp_path / "s.zarr")
+    small = GeneratorParams(image_size=(120, 160), sizes=(30, 60, 90))
+    generate(path, 6, small, seed=3, split="s", workers=1)
+    with open_store(path) as s:
+        e = example_boxes(s, np.arange(6))
+    want = DBOX_TRANSFORM.batch(e.boxes, e.move, e.depth)
+    numpy0 = list(store_batches(path, 3, transform=DBOX_TRANSFORM))
+    assert np.array_equal(np.concatenate([b["inputs"] for b in numpy0]), want["inputs"])
+    assert np.array_equal(np.concatenate([b["index"] for b in numpy0]), np.arange(6))
+    torch2 = [{k: v.numpy() for k, v in b.items()}
+              for b in DataLoader(StoreDataset(path, DBOX_TRANSFORM), batch_size=3, num_workers=2)]
+    tf_batches = [{k: v.numpy() for k, v in b.items()} for b in from_store(path, 3, transform=DBOX_TRANSFORM)]
+    grain = StoreSource(path, DBOX_TRANSFORM)
+    grain_batches = [{k: np.stack([grain[i][k] for i in rows]) for k in numpy0[0]}
+                     for rows in ([0, 1, 2], [3, 4, 5])]
+    for other in (torch2, tf_batches, grain_batches):
+        assert _same(numpy0, other)

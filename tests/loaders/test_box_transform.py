@@ -37,6 +37,15 @@ def test_absolute_inputs_keep_metres():
     np.testing.assert_allclose(out["inputs"][1:, 4:], np.diff(move, axis=0), atol=1e-6)
 
 
+def test_dbox_abs_inputs_keep_each_movement_whole():
+    """DBox_Abs (config/model/DBox_absolute.yaml: sequence_dist False): metres, and each
+    observation's own movement to the last frame rather than its change."""
+    boxes, move, depth = _example()
+    out = BoxTransform(normalized=False, relative=False)(boxes, move, depth)
+    np.testing.assert_array_equal(out["inputs"][:, 4:], move.astype(np.float32))
+    assert out["depth_norm"] == np.float32(depth)
+
+
 def test_fewer_observations_take_evenly_spaced_frames():
     boxes, move, depth = _example(n=19)
     x = BoxTransform(n_obs=10)(boxes, move, depth)["inputs"]
