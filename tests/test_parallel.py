@@ -211,6 +211,8 @@ import os, signal
 import multiprocessing.util as util
 from odms_data.parallel import _start_fork_server
 
+signal.signal(signal.SIGINT, signal.default_int_handler)  # as in a terminal, also under a runner
+# that started this process with SIGINT ignored (a pytest-xdist worker does)
 spawn = util.spawnv_passfds
 
 def spawn_then_ctrl_c(path, args, passfds):
