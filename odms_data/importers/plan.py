@@ -1,4 +1,4 @@
-"""What an importer decides about a store before any mask is decoded: the `Plan`, and where each
+"""What an importer decides about a store before any mask is decoded: the `MaskPlan`, and where each
 frame's mask comes from (a `MaskSource`: a mask file, or one instance in a label image)."""
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ class MaskSource(Protocol):
 
 
 @dataclass
-class Plan:
+class MaskPlan:
     """Everything an importer decided about a store, before any mask is decoded."""
 
     split: str
