@@ -244,5 +244,4 @@ def import_recording(
             depth = d1 + (z - z.min()) if d1 is not None and len(z) else np.full(len(z), math.nan)
     source = RecordingImporter(name, mask_dir, files, z, depth, windows, n_obs, threshold, skipped, skip_bad)
     with Workers(workers) as pool:
-        attrs = source.write(out, fmt, pool, label=label, overwrite=overwrite, progress=progress)
-    return ImportResult(str(out), name, attrs)
+        return source.write(out, fmt, pool, label=label, overwrite=overwrite, progress=progress)

@@ -245,8 +245,7 @@ def import_release(
         for name in names:
             path = store_path(out_dir, name, fmt)
             source = SplitImporter(name, *scans[name], path, verify, skip_bad)
-            attrs = source.write(path, fmt, pool, label=name, overwrite=overwrite, progress=progress)
-            out.append(ImportResult(str(path), name, attrs))
+            out.append(source.write(path, fmt, pool, overwrite=overwrite, progress=progress))
     return out
 
 

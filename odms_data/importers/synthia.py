@@ -536,9 +536,9 @@ def import_synthia(
         if not plan.ids:
             names = ", ".join(s.name for s in scanned.sequences)
             raise InputError(f"no window of {names} passes the selection rules", fix="synthia-selection")
-        attrs = SynthiaImporter(plan).write(out, fmt, pool, label=f"{out.name} (writing)",
-                                            overwrite=overwrite, progress=progress)
-    result = ImportResult(str(out), split, attrs)
+        result = SynthiaImporter(plan).write(out, fmt, pool, label=f"{out.name} (writing)",
+                                             overwrite=overwrite, progress=progress)
+    attrs = result.attrs
     summary = SynthiaSummary(
         store=str(out), split=split, camera=camera, examples=attrs.counts["examples"],
         frames=attrs.counts["frames"], digest=attrs.digest, skipped=tuple(result.skipped),
