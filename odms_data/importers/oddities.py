@@ -7,12 +7,12 @@ import numpy as np
 
 from ..store.format import Z_ODDITY
 from ..store.oddity import Oddity
-from .plan import Plan
+from .plan import MaskPlan
 
 TINY_Z_STEP = 1e-4  # m; steps below this (but above 0) are recorded as an oddity
 
 
-def example_oddities(plan: Plan, area: np.ndarray) -> list[Oddity]:
+def example_oddities(plan: MaskPlan, area: np.ndarray) -> list[Oddity]:
     """Per-example oddities the data shows, in example order."""
     out: list[Oddity] = []
     for e, row in enumerate(plan.frame_index):

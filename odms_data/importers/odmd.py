@@ -7,12 +7,12 @@ far to near, `bb_3D.camera_movement` (P - 1, 3, E) from each position to the las
 ODMD's order, box and depth per frame (NaN where ODMD writes 0: the robot sets' inner frames),
 the movement (0 at the last frame) and the label, the depth at the last frame. The pickles are
 read by odmd_pickle.py, which runs none of their code; every shape is checked here before
-anything is allocated from it.
+anything is allocated from it. Each set is an `Importer` (builder.py) of a store of boxes.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -20,10 +20,12 @@ import numpy as np
 
 from ..errors import InputError
 from ..paths import inside
-from ..store.box_store import BoxRows, write_box_store
+from ..store.box_store import BoxRows
 from ..store.format import StoreAttrs, store_path
 from ..store.manifests import check_against_manifest, load_manifest, split_names
+from .builder import Importer, Progress
 from .odmd_pickle import load_pickle
+from .plan import BoxPlan
 from .result import ImportResult
 
 MAX_POSITIONS = 1000  # ODMD's sets have 10
@@ -56,8 +58,8 @@ def _image_dim(d: dict, where: str) -> tuple[int, int]:
     return int(dim[0]), int(dim[1])
 
 
-def read_set(path: Path, split: str) -> tuple[BoxRows, tuple[int, int]]:
-    """The examples of one ODMD pickle as rows of a store of boxes of `split`, and its image size."""
+def read_set(path: Path, split: str) -> BoxPlan:
+    """The examples of one ODMD pickle as the plan of a store of boxes of `split`."""
     d = load_pickle(path)
     bb = _array(d, ("bb", "bboxes"), 3, str(path))
     cm = _array(d, ("bb_3D", "camera_movement"), 3, str(path))
@@ -75,12 +77,31 @@ def read_set(path: Path, split: str) -> tuple[BoxRows, tuple[int, int]]:
         boxes=bb[:, :4, :].transpose(2, 0, 1).copy(), move=move, depth=depth, d1=depth[:, -1].copy(),
         ids=[f"{split}/{e:05d}" for e in range(E)], sources=[f"{rel}#{e}" for e in range(E)],
     )
-    return rows, _image_dim(d, str(path))
+    file, domain = ODMD_SETS[split]
+    return BoxPlan(split=split, domain=domain, source=SOURCE + file, rows=rows,
+                   image_size=_image_dim(d, str(path)))
+
+
+@dataclass
+class OdmdImporter(Importer):
+    """One of ODMD's sets: its pickle, planned as a store of boxes, which is checked against the
+    set's manifest where there is one. `store` is where it goes (named in a mismatch)."""
+
+    split: str
+    pickle: Path
+    store: Path
+
+    def plan(self) -> BoxPlan:
+        return read_set(self.pickle, self.split)
+
+    def check(self, attrs: StoreAttrs) -> None:
+        if attrs.split in split_names():
+            check_against_manifest(attrs, load_manifest(attrs.split), str(self.store))
 
 
 def import_odmd(
     data_dir: str | Path, out_dir: str | Path, *, splits: list[str] | None = None, fmt: str = "zarr",
-    overwrite: bool = False, progress: Callable[[str, int, int], None] | None = None,
+    overwrite: bool = False, progress: Progress | None = None,
 ) -> list[ImportResult]:
     """Import ODMD's sets under `data_dir` (ODMD's data/ folder) into `<out_dir>/<split>.zarr`
     (or .h5), each checked against splits/<split>.json where there is one (DigestMismatchError,
@@ -98,20 +119,6 @@ def import_odmd(
     for n, f in files.items():
         if not f.is_file():
             raise InputError(f"{f}: ODMD's set {n} is not there; give ODMD's data/ folder")
-    out: list[ImportResult] = []
-    for n in names:
-        rows, size = read_set(files[n], n)
-        path = store_path(out_dir, n, fmt)
-        attrs = StoreAttrs(split=n, domain=ODMD_SETS[n][1], image_size=size, counts={},
-                           source=SOURCE + ODMD_SETS[n][0])
-
-        def check(a: StoreAttrs, path: Path = path) -> None:
-            if a.split in split_names():
-                check_against_manifest(a, load_manifest(a.split), str(path))
-
-        out_dir.mkdir(parents=True, exist_ok=True)
-        write_box_store(str(path), rows, attrs, fmt, overwrite=overwrite, check=check)
-        out.append(ImportResult(str(path), n, attrs))
-        if progress:
-            progress(n, attrs.counts["frames"], attrs.counts["frames"])
-    return out
+    stores = {n: store_path(out_dir, n, fmt) for n in names}
+    return [OdmdImporter(n, files[n], stores[n]).write(stores[n], fmt, overwrite=overwrite, progress=progress)
+            for n in names]

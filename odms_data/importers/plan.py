@@ -1,9 +1,11 @@
-"""What an importer decides about a store before any mask is decoded: the `Plan`, and where each
-frame's mask comes from (a `MaskSource`: a mask file, or one instance in a label image)."""
+"""What an importer decides about a store before writing it: a `Plan` of the kind of store it
+imports (format.KINDS): a `MaskPlan`, with where each frame's mask comes from (a `MaskSource`: a
+mask file, or one instance in a label image), or a `BoxPlan`, whose rows are all there is."""
 
 from __future__ import annotations
 
 import re
+from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -12,6 +14,7 @@ from typing import Protocol
 import numpy as np
 
 from ..errors import InputError
+from ..store.box_store import BoxRows
 from ..store.manifests import split_names
 from ..store.oddity import SKIPPED, Oddity
 
@@ -37,13 +40,26 @@ class MaskSource(Protocol):
         ...
 
 
-@dataclass
-class Plan:
-    """Everything an importer decided about a store, before any mask is decoded."""
+@dataclass(kw_only=True)
+class Plan(ABC):
+    """What every importer decides about a store before writing it; a subclass per kind of store
+    (format.KINDS) adds its frames and examples."""
 
     split: str
     domain: str
     source: str
+    oddities: list[Oddity] = field(default_factory=list)
+
+    @property
+    @abstractmethod
+    def n_frames(self) -> int:
+        """The store's frames, which progress counts."""
+
+
+@dataclass(kw_only=True)
+class MaskPlan(Plan):
+    """Everything an importer decided about a store of masks, before any mask is decoded."""
+
     masks: Sequence[MaskSource]  # (F,) where each frame row's mask comes from
     z: np.ndarray  # (F,) m
     depth: np.ndarray  # (F,) m, NaN where unknown
@@ -53,9 +69,24 @@ class Plan:
     sources: list[str]
     frames_per_chunk: int
     frames_per_shard: int
-    oddities: list[Oddity] = field(default_factory=list)
     threshold: int = DEFAULT_THRESHOLD
     id_room: int = 0  # bytes kept free in the id array, for a split renamed before the commit
+
+    @property
+    def n_frames(self) -> int:
+        return len(self.masks)
+
+
+@dataclass(kw_only=True)
+class BoxPlan(Plan):
+    """A store of boxes: its rows (store/box_store.py) and image size; nothing is left to decode."""
+
+    rows: BoxRows
+    image_size: tuple[int, int]  # (height, width) of the images the boxes were found in
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.rows.boxes.shape[0] * self.rows.boxes.shape[1])
 
 
 @dataclass

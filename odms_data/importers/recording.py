@@ -25,7 +25,7 @@ from ..store.oddity import SKIPPED, Oddity
 from .builder import Importer, Progress
 from .decoding import Workers
 from .mask_files import MaskFile, is_mask_file
-from .plan import DEFAULT_THRESHOLD, Plan, Skips, store_name
+from .plan import DEFAULT_THRESHOLD, MaskPlan, Skips, store_name
 from .result import ImportResult
 
 if TYPE_CHECKING:
@@ -141,7 +141,7 @@ def read_positions(
 def make_plan(
     name: str, mask_dir: Path, files: list[Path], z: np.ndarray, depth: np.ndarray,
     windows: list[int] | None, n_obs: int, threshold: int, skipped: list[Oddity],
-) -> Plan:
+) -> MaskPlan:
     if len(files) < 2:
         raise InputError(f"{mask_dir}: {len(files)} usable frame(s), at least 2 are needed")
     order = np.argsort(z, kind="stable")
@@ -161,7 +161,7 @@ def make_plan(
     else:
         ids, frame_index = [f"{name}/all"], np.arange(n)[None, :]
     d1 = depth[frame_index[:, 0]]
-    return Plan(
+    return MaskPlan(
         split=name, domain="recording", source=f"recording {mask_dir.name}",
         masks=[MaskFile(f) for f in files], z=z,
         depth=depth, frame_index=frame_index, d1=d1, ids=ids, sources=[mask_dir.name] * len(ids),
@@ -199,11 +199,11 @@ class RecordingImporter(Importer):
     skipped: list[Oddity]
     skip_bad: bool = False
 
-    def plan(self) -> Plan:
+    def plan(self) -> MaskPlan:
         return make_plan(self.name, self.mask_dir, self.files, self.z, self.depth, self.windows, self.n_obs,
                          self.threshold, self.skipped)
 
-    def drop(self, plan: Plan, failures: list[tuple[int, str]]) -> None:
+    def drop(self, plan: MaskPlan, failures: list[tuple[int, str]]) -> None:
         bad = {str(plan.masks[row]) for row, _ in failures}
         self.skipped = self.skipped + [Oddity(SKIPPED, plan.masks[row].name, m) for row, m in failures]
         keep = [i for i, f in enumerate(self.files) if str(f) not in bad]
@@ -244,5 +244,4 @@ def import_recording(
             depth = d1 + (z - z.min()) if d1 is not None and len(z) else np.full(len(z), math.nan)
     source = RecordingImporter(name, mask_dir, files, z, depth, windows, n_obs, threshold, skipped, skip_bad)
     with Workers(workers) as pool:
-        attrs = source.write(out, fmt, pool, label=label, overwrite=overwrite, progress=progress)
-    return ImportResult(str(out), name, attrs)
+        return source.write(out, fmt, pool, label=label, overwrite=overwrite, progress=progress)

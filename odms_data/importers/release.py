@@ -30,7 +30,7 @@ from ..store.oddity import SKIPPED, Oddity
 from .builder import Importer, Progress
 from .decoding import Workers
 from .mask_files import MaskFile
-from .plan import Plan, Skips
+from .plan import MaskPlan, Skips
 from .result import ImportResult
 
 # (frames per mask chunk, frames per shard): robot one folder per chunk, normal/perturb one example.
@@ -138,7 +138,7 @@ def scan_split(data_dir: Path, split: str, skip_bad: bool) -> tuple[list[Folder]
     return folders, skips.oddities
 
 
-def make_plan(split: str, folders: list[Folder], skipped: list[Oddity]) -> Plan:
+def make_plan(split: str, folders: list[Folder], skipped: list[Oddity]) -> MaskPlan:
     domain = split.split("-")[0]
     masks: list[MaskFile] = []
     z, depth, rows = [], [], []
@@ -161,7 +161,7 @@ def make_plan(split: str, folders: list[Folder], skipped: list[Oddity]) -> Plan:
         frame_index[i, : len(r)] = r
     fpc, fps = CHUNKING[domain]
     fold = split.split("-")[1]
-    return Plan(
+    return MaskPlan(
         split=split, domain=domain, source=f"{RELEASE}, {fold}/{domain}",
         masks=masks, z=np.concatenate(z) if z else np.zeros(0), depth=np.concatenate(depth) if depth
         else np.zeros(0), frame_index=frame_index, d1=np.array(d1, np.float64), ids=ids,
@@ -187,10 +187,10 @@ class SplitImporter(Importer):
     verify: bool
     skip_bad: bool = False
 
-    def plan(self) -> Plan:
+    def plan(self) -> MaskPlan:
         return make_plan(self.name, self.folders, self.skipped)
 
-    def drop(self, plan: Plan, failures: list[tuple[int, str]]) -> None:
+    def drop(self, plan: MaskPlan, failures: list[tuple[int, str]]) -> None:
         bad: dict[int, str] = {}
         for row, message in failures:
             bad.setdefault(_folder_of(self.folders, row), message)
@@ -245,8 +245,7 @@ def import_release(
         for name in names:
             path = store_path(out_dir, name, fmt)
             source = SplitImporter(name, *scans[name], path, verify, skip_bad)
-            attrs = source.write(path, fmt, pool, label=name, overwrite=overwrite, progress=progress)
-            out.append(ImportResult(str(path), name, attrs))
+            out.append(source.write(path, fmt, pool, overwrite=overwrite, progress=progress))
     return out
 
 

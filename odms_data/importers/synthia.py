@@ -29,7 +29,7 @@ from ..store.oddity import Oddity
 from .builder import Importer, Progress
 from .decoding import Workers
 from .mask_files import image_size, read_png
-from .plan import MaskSource, Plan, Skips, store_name
+from .plan import MaskPlan, MaskSource, Skips, store_name
 from .result import ImportResult, SequenceCounts, SynthiaSummary
 from .synthia_protocol import CAMERAS, CLASS_NAMES, PAPER_SELECTION, SYNTHIA_POSES, PoseConvention, Selection
 
@@ -442,7 +442,7 @@ def select_windows(track: Track, poses: dict[int, Pose], sel: Selection) -> dict
     return out
 
 
-def plan_store(scanned: Scanned, sel: Selection, split: str) -> tuple[Plan, dict[str, dict]]:
+def plan_store(scanned: Scanned, sel: Selection, split: str) -> tuple[MaskPlan, dict[str, dict]]:
     """The store's frame rows (per track and closest frame, closest first) and examples, and per
     sequence the number of tracks and examples of each class."""
     masks: list[MaskSource] = []
@@ -477,7 +477,7 @@ def plan_store(scanned: Scanned, sel: Selection, split: str) -> tuple[Plan, dict
     frame_index = np.full((len(examples), max((e[2] for e in examples), default=1)), -1, np.int64)
     for k, (_, base, n, _, _) in enumerate(examples):
         frame_index[k, :n] = base + np.arange(n)
-    plan = Plan(
+    plan = MaskPlan(
         split=split, domain="driving", source=f"SYNTHIA-SEQS, {scanned.camera}", masks=masks,
         z=np.array(z, np.float64), depth=np.array(depth, np.float64), frame_index=frame_index,
         d1=np.array([e[3] for e in examples], np.float64), ids=[e[0] for e in examples],
@@ -495,9 +495,9 @@ class SynthiaImporter(Importer):
     """The store planned from the scanned sequences; bad frames were left out while scanning, so
     none is dropped while writing."""
 
-    planned: Plan
+    planned: MaskPlan
 
-    def plan(self) -> Plan:
+    def plan(self) -> MaskPlan:
         return self.planned
 
 
@@ -536,9 +536,9 @@ def import_synthia(
         if not plan.ids:
             names = ", ".join(s.name for s in scanned.sequences)
             raise InputError(f"no window of {names} passes the selection rules", fix="synthia-selection")
-        attrs = SynthiaImporter(plan).write(out, fmt, pool, label=f"{out.name} (writing)",
-                                            overwrite=overwrite, progress=progress)
-    result = ImportResult(str(out), split, attrs)
+        result = SynthiaImporter(plan).write(out, fmt, pool, label=f"{out.name} (writing)",
+                                             overwrite=overwrite, progress=progress)
+    attrs = result.attrs
     summary = SynthiaSummary(
         store=str(out), split=split, camera=camera, examples=attrs.counts["examples"],
         frames=attrs.counts["frames"], digest=attrs.digest, skipped=tuple(result.skipped),

@@ -14,6 +14,7 @@ import pytest
 from click.testing import CliRunner
 
 from odms_data.cli import main
+from odms_data.cli.import_commands import odmd as odmd_command
 from odms_data.importers.odmd import ODMD_SETS
 from odms_data.store.reader import open_store
 
@@ -49,6 +50,9 @@ def _data(tmp_path, sets: dict[str, dict]) -> Path:
 def test_an_odmd_like_set_becomes_a_store_of_boxes_that_box_ls_solves_exactly(tmp_path, monkeypatch):
     # a set named like none of splits/ is not checked against a manifest: import it under its own name
     monkeypatch.setitem(ODMD_SETS, "mine-val", ("odmd/val/val_mine.pk", "odmd"))
+    # --set's choices were copied from ODMD_SETS when the command was first imported
+    option = next(p for p in odmd_command.params if p.name == "sets")
+    monkeypatch.setattr(option.type, "choices", (*option.type.choices, "mine-val"))
     data = _data(tmp_path, {"mine-val": _odmd_like()})
     run = CliRunner()
     res = run.invoke(main, ["import", "odmd", str(data), "-o", str(tmp_path / "out"), "--set", "mine-val",
