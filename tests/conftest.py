@@ -1,4 +1,5 @@
-"""Shared fixtures: the official ODMS archive (from ../shared, skipped when absent) and stores."""
+"""Shared fixtures: the official ODMS archive (from ../shared, skipped when absent) and stores,
+and ODMD's data folder (skipped when absent)."""
 
 from __future__ import annotations
 
@@ -18,6 +19,8 @@ settings.load_profile("reproducible")
 REPO = Path(__file__).resolve().parents[1]
 SHARED = Path(os.environ.get("ODMS_SHARED", REPO.parent / "shared"))
 ARCHIVE = SHARED / "data" / "odms-v1.tar.gz"
+# ODMD's data/ folder (griffbr/ODMD): $ODMD_DATA, else ../shared/odmd/data beside the project.
+ODMD_DATA = Path(os.environ.get("ODMD_DATA") or REPO.parent / "shared/odmd/data")
 
 
 @pytest.fixture(autouse=True, scope="module")
@@ -58,3 +61,11 @@ def official_data_dir(official_entry) -> Path:
 def official_stores(official_entry) -> dict[str, Path]:
     """The eight official splits, imported: split name -> store path (read-only)."""
     return {name: official_entry / "stores" / f"{name}.zarr" for name in OFFICIAL_SPLITS}
+
+
+@pytest.fixture(scope="session")
+def odmd_data() -> Path:
+    """ODMD's data/ folder: its pickled val/test sets (read-only)."""
+    if not ODMD_DATA.is_dir():
+        pytest.skip(f"ODMD's data folder is not here ({ODMD_DATA}); set ODMD_DATA to griffbr/ODMD's data/")
+    return ODMD_DATA

@@ -24,12 +24,14 @@ def export(stores, output, name, licence, examples_per_file, overwrite, as_json)
     """Export stores as a Hugging Face Hub dataset: Parquet shards, a dataset card and Croissant.
 
     One split per store; `datasets.load_dataset(OUTPUT)` reads it, and the folder can be pushed
-    to the Hub as it is. Needs pip install 'odms-data[hub]' (pyarrow).
+    to the Hub as it is. The stores are all of masks or all of boxes (ODMD's kind), whose columns
+    differ. Needs pip install 'odms-data[hub]' (pyarrow).
 
     \b
     Examples:
       odms-data export sim-val.zarr sim-test.zarr -o odms-sim
       odms-data export stores/*-val.zarr -o odms-val --name "ODMS validation"
+      odms-data export boxes-val.zarr -o odmd-boxes      # from generate --boxes odmd
     """
     optional("pyarrow", "odms-data export")  # before the stores are read
     from ..publish.hub_export import export_hub

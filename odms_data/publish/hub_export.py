@@ -5,8 +5,10 @@
     DIR/data/<split>/<split>-00000-of-00002.parquet
 
 One row per example: `example_id`, `split`, `source`, `d1` (NaN when unlabelled), `n`, `height`,
-`width`, `z`, `depth` and `area` (lists of n), and `masks`, a list of n masks each bit-packed as
-the store packs them (store/masks.py: rows of ceil(width / 8) bytes, most significant bit first).
+`width`, then a list of n per frame of each array of the stores' kind that the array table gives a
+Hub column (format.ARRAYS; hub_metadata.columns_of): for masks `z`, `depth`, `area` and `masks`, each
+bit-packed as the store packs them (store/masks.py: rows of ceil(width / 8) bytes, most
+significant bit first); for boxes `depth`, `box` and `move`. An export holds one kind.
 `datasets.load_dataset(DIR)` reads it, one split per store (named with `_` for `-`, as the Hub
 allows only letters, digits and `_` in split names). The folder is written as DIR.partial and
 renamed into place when complete, as every output is (outputs.py); a store whose content differs
@@ -29,25 +31,27 @@ from ..outputs import Kind, atomic_folder
 from ..store.digest import check_recorded_digest
 from ..store.format import ARRAYS
 from ..store.reader import Store, open_store
-from .hub_metadata import FIELDS, SplitExport, croissant, dataset_card, hub_split, licence_of
+from .hub_metadata import SplitExport, columns_of, croissant, dataset_card, hub_split, licence_of
 
 ROW_GROUP = 100  # examples per Parquet row group: small groups let the Hub's viewer page quickly
 Progress = Callable[[str, int, int], None]  # (output, examples written, examples in all the stores)
 
 
 def _example_rows(store: Store, rows: range) -> dict[str, list]:
-    """The columns (hub_metadata.FIELDS) of examples `rows` of `store`, their masks read in one slice."""
+    """The columns (hub_metadata.columns_of) of examples `rows` of `store`, their masks read in one slice."""
+    columns = columns_of(store.kind)
     frames = [store.frames_of(i) for i in rows]
     flat = np.concatenate([np.zeros(0, np.int64), *frames])
     lo = int(flat.min()) if len(flat) else 0
-    packed = store.read_packed(lo, int(flat.max()) + 1) if len(flat) else None
+    masks = any(ARRAYS[c].sharded for c in columns if c in ARRAYS)
+    packed = store.read_packed(lo, int(flat.max()) + 1) if len(flat) and masks else None
     out: dict[str, list] = {
         "split": [store.attrs.split] * len(rows),
         "n": [len(f) for f in frames],
         "height": [store.height] * len(rows),
         "width": [store.width] * len(rows),
     }
-    for c in FIELDS:
+    for c in columns:
         a = ARRAYS.get(c)
         if a is None:
             continue
@@ -61,10 +65,10 @@ def _example_rows(store: Store, rows: range) -> dict[str, list]:
             out[c] = [values[i] for i in rows]
         else:
             out[c] = store.checked(c)[rows.start : rows.stop].tolist()
-    return {c: out[c] for c in FIELDS}
+    return {c: out[c] for c in columns}
 
 
-def _schema():
+def _schema(kind: str):
     import pyarrow as pa
 
     def arrow(c: str):
@@ -80,7 +84,7 @@ def _schema():
             one = pa.list_(one)
         return pa.list_(one) if a.per == "frame" else one
 
-    return pa.schema([(c, arrow(c)) for c in FIELDS])
+    return pa.schema([(c, arrow(c)) for c in columns_of(kind)])
 
 
 def _write_split(store: Store, folder: Path, examples_per_file: int,
@@ -95,7 +99,7 @@ def _write_split(store: Store, folder: Path, examples_per_file: int,
     for k in range(count):
         rows = range(k * examples_per_file, min(n, (k + 1) * examples_per_file))
         name = f"data/{split}/{split}-{k:05d}-of-{count:05d}.parquet"
-        table = pa.Table.from_pydict(_example_rows(store, rows), schema=_schema())
+        table = pa.Table.from_pydict(_example_rows(store, rows), schema=_schema(store.kind))
         pq.write_table(table, folder / name, compression="zstd", row_group_size=ROW_GROUP)
         files.append(name)
         size += (folder / name).stat().st_size
@@ -145,10 +149,11 @@ def export_hub(
     target = Path(out_dir)
     opened = [open_store(p) for p in stores]
     try:
-        boxes = next((p for p, s in zip(stores, opened, strict=True) if s.kind != "masks"), None)
-        if boxes is not None:  # the card, the Croissant fields and the columns describe masks
-            raise InputError(f"{boxes}: a store of boxes cannot be exported to the Hub yet; "
-                             "export stores of masks")
+        other = next(((p, s.kind) for p, s in zip(stores, opened, strict=True) if s.kind != opened[0].kind),
+                     None)
+        if other is not None:  # a Hub dataset's splits share their columns, which follow the kind
+            raise InputError(f"{other[0]}: a store of {other[1]} cannot join an export of stores of "
+                             f"{opened[0].kind} ({stores[0]}); export each kind on its own")
         splits = [s.attrs.split for s in opened]
         twice = sorted({s for s in splits if splits.count(s) > 1})
         if twice:

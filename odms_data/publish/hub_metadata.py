@@ -3,7 +3,8 @@
 The card is a README.md whose YAML header carries what the Hub indexes (licence, task, size,
 tags, and `configs`, which maps each split to its Parquet files so that `datasets` and the Hub's
 viewer find them); the Croissant file (MLCommons Croissant 1.0) describes the dataset, its files
-and one record set whose fields are the Parquet columns.
+and one record set whose fields are the Parquet columns. The columns follow from the array
+table (format.ARRAYS) for the stores' kind; what the card says of the kind is its `KindText`.
 """
 
 from __future__ import annotations
@@ -12,19 +13,73 @@ import json
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import cache
 
 from .._version import __version__
 from ..errors import InputError
 from ..protocol import official_name
-from ..store.format import ARRAYS, StoreAttrs, arrays_per
+from ..store.format import StoreAttrs, arrays_of, arrays_per
 
-PAPER = "Learning Object Depth from Camera Motion and Video Object Segmentation"
-BIBTEX = """@inproceedings{GrCo20,
+
+@dataclass(frozen=True)
+class KindText:
+    """What the card and the Croissant metadata say of one kind of example (format.KINDS)."""
+
+    benchmark: str  # its name, as the papers spell it
+    venue: str  # the paper's venue and year
+    paper: str  # the paper's title
+    bibtex: str
+    url: str  # the authors' repository
+    image: str  # what the columns `height` and `width` measure
+    tags: tuple[str, ...]  # the card's Hub tags
+    keywords: tuple[str, ...]  # Croissant's
+    intro: str  # the card's first words: what an example is
+    summary: str  # the same in a line, for Croissant
+    reading: str  # Python that turns a row `ex` into arrays
+
+
+KIND_TEXT = {
+    "masks": KindText(
+        benchmark="ODMS", venue="ECCV 2020",
+        paper="Learning Object Depth from Camera Motion and Video Object Segmentation",
+        bibtex="""@inproceedings{GrCo20,
   author = {Griffin, Brent A. and Corso, Jason J.},
   title = {Learning Object Depth from Camera Motion and Video Object Segmentation},
   booktitle = {European Conference on Computer Vision (ECCV)},
   year = {2020}
-}"""
+}""",
+        url="https://github.com/griffbr/ODMS", image="mask",
+        tags=("odms", "object-depth", "segmentation-masks", "camera-motion"),
+        keywords=("ODMS", "object depth", "segmentation masks", "camera motion"),
+        intro="""\
+ODMS (Object Depth via Motion and Segmentation; Griffin & Corso, ECCV 2020) examples: the binary
+segmentation masks of one object seen from a camera moving along its optical axis, the camera
+positions `z` and the label `d1`, the object's depth at the closest observation.""",
+        summary="binary masks of an object seen from a camera moving along its optical axis, camera "
+                "positions and the depth label d1",
+        reading="""\
+masks = np.stack([np.unpackbits(np.frombuffer(m, np.uint8).reshape(ex["height"], -1), axis=-1,
+                                count=ex["width"]).astype(bool) for m in ex["masks"]])  # (n, h, w)"""),
+    "boxes": KindText(
+        benchmark="ODMD", venue="CVPR 2021", paper="Depth from Camera Motion and Object Detection",
+        bibtex="""@inproceedings{GrCoCVPR21,
+  author = {Griffin, Brent A. and Corso, Jason J.},
+  booktitle = {The IEEE Conference on Computer Vision and Pattern Recognition (CVPR)},
+  title = {Depth from Camera Motion and Object Detection},
+  year = {2021}
+}""",
+        url="https://github.com/griffbr/ODMD", image="image",
+        tags=("odmd", "object-depth", "object-detection", "bounding-boxes", "camera-motion"),
+        keywords=("ODMD", "object depth", "object detection", "bounding boxes", "camera motion"),
+        intro="""\
+ODMD (Object Depth via Motion and Detection; Griffin & Corso, CVPR 2021) examples: the detection
+boxes of one object seen from a camera moving in x, y and z, the camera's movement `move` from
+each observation to the last, and the label `d1`, the object's depth at the last observation.""",
+        summary="detection boxes of an object seen from a camera moving in x, y and z, the camera "
+                "movements and the depth label d1",
+        reading="""boxes = np.array(ex["box"])  # (n, 4) [x_c, y_c, w, h]; x_c, w / width and y_c, h / height
+move = np.array(ex["move"])  # (n, 3) m, from each observation to the last"""),
+}
 RELEASE_LICENCE = {  # the licence of the authors' released data (griffbr/ODMS)
     "license": "other", "license_name": "odms-research-only",
     "license_link": "https://github.com/griffbr/ODMS",
@@ -41,30 +96,26 @@ class SplitExport:
     bytes: int
 
 
-# the columns that are not store arrays: (Croissant data type, description)
-DERIVED = {
-    "split": ("sc:Text", "the store's split"),
-    "n": ("sc:Integer", "observations (frames) of the example"),
-    "height": ("sc:Integer", "mask height, pixels"),
-    "width": ("sc:Integer", "mask width, pixels"),
-}
-
-
-def _fields() -> dict[str, tuple[str, bool, str]]:
-    """column: (Croissant data type, repeated, description), in the Parquet files' order: the
-    example's own columns, then a list per example of each per-frame array the table exports
-    (format.ARRAYS), the masks last."""
-    exported = {a.name: a.hub for a in ARRAYS.values() if a.hub}
+@cache
+def columns_of(kind: str) -> dict[str, tuple[str, bool, str]]:
+    """column: (Croissant data type, repeated, description) of an export of stores of `kind`, in
+    the Parquet files' order: the example's own columns, then a list per example of each per-frame
+    array the table exports (format.ARRAYS), the masks last."""
+    image = KIND_TEXT[kind].image
+    derived = {  # the columns that are not store arrays
+        "split": ("sc:Text", "the store's split"),
+        "n": ("sc:Integer", "observations (frames) of the example"),
+        "height": ("sc:Integer", f"{image} height, pixels"),
+        "width": ("sc:Integer", f"{image} width, pixels"),
+    }
+    exported = {a.name: hub for a in arrays_of(kind).values() if (hub := a.hub_of(kind))}
     head = ["example_id", "split", "source", "d1", "n", "height", "width"]
-    head += [a.name for a in arrays_per("example") if a.hub and a.name not in head]
-    frame = sorted((a for a in arrays_per("frame") if a.hub), key=lambda a: a.sharded)
+    head += [a.name for a in arrays_per("example", kind) if a.hub and a.name not in head]
+    frame = sorted((a for a in arrays_per("frame", kind) if a.hub), key=lambda a: a.sharded)
     return {
-        **{c: (t, False, d) for c in head for t, d in [DERIVED.get(c) or exported[c]]},
+        **{c: (t, False, d) for c in head for t, d in [derived.get(c) or exported[c]]},
         **{a.name: (t, True, d) for a in frame for t, d in [exported[a.name]]},
     }
-
-
-FIELDS = _fields()
 
 
 def hub_split(split: str) -> str:
@@ -123,12 +174,12 @@ def dataset_card(
     title: str, stores: Sequence[StoreAttrs], exported: Sequence[SplitExport], licence: str
 ) -> str:
     """README.md for the Hub: the YAML header, then what the data is, how to read it, where it came from."""
-    total = sum(e.examples for e in exported)
+    total, text = sum(e.examples for e in exported), KIND_TEXT[stores[0].kind]
     header = {
         **_licence_fields(licence),
         "pretty_name": title,
         "task_categories": ["depth-estimation"],
-        "tags": ["odms", "object-depth", "segmentation-masks", "camera-motion"],
+        "tags": list(text.tags),
         "size_categories": [_size_category(total)],
         "configs": [{
             "config_name": "default",
@@ -140,7 +191,7 @@ def dataset_card(
         f"| `{hub_split(e.split)}` | {a.domain} | {e.examples:,} | {a.image_size[0]}x{a.image_size[1]} | "
         f"`{a.digest}` |" for a, e in zip(stores, exported, strict=True))
     fields = "\n".join(f"| `{k}` | {'list of ' if rep else ''}{t.split(':')[1]} | {d} |"
-                       for k, (t, rep, d) in FIELDS.items())
+                       for k, (t, rep, d) in columns_of(stores[0].kind).items())
     licence_text = ("non-commercial research use only, the licence of the authors' released data "
                     "(github.com/griffbr/ODMS)" if licence == "other" else licence)
     first = hub_split(exported[0].split)
@@ -150,9 +201,7 @@ def dataset_card(
 
 # {title}
 
-ODMS (Object Depth via Motion and Segmentation; Griffin & Corso, ECCV 2020) examples: the binary
-segmentation masks of one object seen from a camera moving along its optical axis, the camera
-positions `z` and the label `d1`, the object's depth at the closest observation. Exported by
+{text.intro} Exported by
 odms-data {__version__} from its stores; licence: {licence_text}.
 
 | split | domain | examples | image size (h x w) | content digest of the store |
@@ -171,8 +220,7 @@ odms-data {__version__} from its stores; licence: {licence_text}.
 import datasets, numpy as np
 ds = datasets.load_dataset("path/or/hub-name", split="{first}")
 ex = ds[0]
-masks = np.stack([np.unpackbits(np.frombuffer(m, np.uint8).reshape(ex["height"], -1), axis=-1,
-                                count=ex["width"]).astype(bool) for m in ex["masks"]])  # (n, h, w)
+{text.reading}
 ```
 
 `croissant.json` describes the same files in MLCommons Croissant 1.0. odms-data reads the stores
@@ -181,7 +229,7 @@ these came from with `odms_data.open_store`; the digests above identify them.
 ## Citation
 
 ```bibtex
-{BIBTEX}
+{text.bibtex}
 ```
 """
 
@@ -207,6 +255,7 @@ CONTEXT = {  # the JSON-LD context of Croissant 1.0
 def croissant(title: str, stores: Sequence[StoreAttrs], exported: Sequence[SplitExport], licence: str,
               hashes: Mapping[str, str]) -> str:
     """Croissant 1.0 JSON-LD: the dataset, its Parquet files, and a record set over their columns."""
+    text = KIND_TEXT[stores[0].kind]
     files = [{
         "@type": "cr:FileObject", "@id": f, "name": f, "contentUrl": f,
         "encodingFormat": "application/x-parquet", "sha256": hashes[f],
@@ -218,7 +267,7 @@ def croissant(title: str, stores: Sequence[StoreAttrs], exported: Sequence[Split
         "@type": "cr:Field", "@id": f"examples/{k}", "name": k, "description": d, "dataType": t,
         **({"repeated": True} if rep else {}),
         "source": {"fileSet": {"@id": "parquet-files"}, "extract": {"column": k}},
-    } for k, (t, rep, d) in FIELDS.items()]
+    } for k, (t, rep, d) in columns_of(stores[0].kind).items()]
     splits = ", ".join(f"{hub_split(e.split)} ({e.examples} examples, {a.domain})"
                        for a, e in zip(stores, exported, strict=True))
     doc = {
@@ -226,18 +275,17 @@ def croissant(title: str, stores: Sequence[StoreAttrs], exported: Sequence[Split
         "@type": "sc:Dataset",
         "conformsTo": "http://mlcommons.org/croissant/1.0",
         "name": title,
-        "description": f"ODMS examples (Griffin & Corso, ECCV 2020: {PAPER}): binary masks of an object "
-                       f"seen from a camera moving along its optical axis, camera positions and the depth "
-                       f"label d1. Splits: {splits}.",
+        "description": f"{text.benchmark} examples (Griffin & Corso, {text.venue}: {text.paper}): "
+                       f"{text.summary}. Splits: {splits}.",
         "license": LICENCE_URLS.get(licence, RELEASE_LICENCE["license_link"] if licence == "other"
                                     else licence),
-        "url": "https://github.com/griffbr/ODMS",
-        "citeAs": BIBTEX,
+        "url": text.url,
+        "citeAs": text.bibtex,
         "version": "1.0.0",
-        "keywords": ["ODMS", "object depth", "segmentation masks", "camera motion"],
+        "keywords": list(text.keywords),
         "creator": {"@type": "sc:Organization", "name": f"odms-data {__version__}"},
         "distribution": [*files, parquet],
         "recordSet": [{"@type": "cr:RecordSet", "@id": "examples", "name": "examples",
-                       "description": "one ODMS example per record", "field": fields}],
+                       "description": f"one {text.benchmark} example per record", "field": fields}],
     }
     return json.dumps(doc, indent=2) + "\n"

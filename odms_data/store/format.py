@@ -36,10 +36,17 @@ class Array:
     per: str  # "frame" or "example"
     trailing: tuple[int | str, ...] = ()
     hub: tuple[str, str] | None = None  # the Hub column: (Croissant data type, description)
+    hub_by_kind: tuple[tuple[str, str], ...] = ()  # (kind, description) where the column means otherwise
     sharded: bool = False  # written whole shards at a time (masks), chunked inside each shard
     text: bool = False  # NUL-padded UTF-8 strings, one per row (`encode_strings`)
     pad: int = 0  # what fills a row's columns beyond those written
     kinds: tuple[str, ...] = KINDS  # the kinds of store that hold it
+
+    def hub_of(self, kind: str) -> tuple[str, str] | None:
+        """The Hub column of this array in a store of `kind`: (Croissant data type, description)."""
+        if self.hub is None:
+            return None
+        return self.hub[0], dict(self.hub_by_kind).get(kind, self.hub[1])
 
 
 # The sizes `trailing` may name: "height" and "packed_width" follow from the image size in the
@@ -68,7 +75,8 @@ ARRAYS = {a.name: a for a in (
                "example's last one, in the camera's axes (ODMD's camera movement); 0 at the last")),
     Array("frame_index", np.int64, "example", ("max_obs",), pad=-1),  # frame rows, z ascending, -1 after
     Array("d1", np.float64, "example",  # depth at the closest frame, m; NaN when unlabelled
-          hub=("sc:Float", "label: depth (m) at the closest observation, z_1; NaN when unlabelled")),
+          hub=("sc:Float", "label: depth (m) at the closest observation, z_1; NaN when unlabelled"),
+          hub_by_kind=(("boxes", "label: depth (m) at the last observation; NaN when unlabelled"),)),
     Array("example_id", np.uint8, "example", ("id_width",), text=True,
           hub=("sc:Text", "the example's id, <split>/<name>")),
     Array("source", np.uint8, "example", ("source_width",), text=True,

@@ -3,9 +3,6 @@ authors' figures on ODMD's own sets (when ODMD's data is on this machine)."""
 
 from __future__ import annotations
 
-import os
-from pathlib import Path
-
 import numpy as np
 import pytest
 from _stores import SIZE, make_store
@@ -17,8 +14,6 @@ from odms_data.evaluation.predictions import read_predictions
 from odms_data.store.boxes import chosen_frames
 from odms_data.store.reader import open_store
 
-# ODMD's data/ folder (griffbr/ODMD): $ODMD_DATA, else ../shared/odmd/data beside the project.
-ODMD_DATA = Path(os.environ.get("ODMD_DATA") or Path(__file__).resolve().parents[3] / "shared/odmd/data")
 # Box_LS by the authors' demo on their pickled sets, as their README and the ODMS README print it.
 PUBLISHED = {
     ("odms_detection", "test_odms_detect_robot.pk"): 17.6,
@@ -122,17 +117,11 @@ def test_odmd_conversion_takes_a_robot_window_from_its_far_end(tmp_path):
         assert chosen_frames(s, 10, True)[0].tolist() == (14 - chosen).tolist()
 
 
-def _odmd_sets():
-    if not ODMD_DATA.is_dir():
-        pytest.skip(f"ODMD's data folder is not here ({ODMD_DATA}); set ODMD_DATA to griffbr/ODMD's data/")
-    return ODMD_DATA
-
-
 @pytest.mark.parametrize(("dataset", "name"), sorted(PUBLISHED))
-def test_published_box_ls_on_odmds_own_sets(dataset, name):
+def test_published_box_ls_on_odmds_own_sets(dataset, name, odmd_data):
     from odms_data.importers.odmd_pickle import load_pickle
 
-    d = load_pickle(_odmd_sets() / dataset / "test" / name)
+    d = load_pickle(odmd_data / dataset / "test" / name)
     bb, move = d["bb"]["bboxes"], d["bb_3D"]["camera_movement"]
     boxes = bb[:, :4, :].transpose(2, 0, 1)
     m = np.zeros((bb.shape[2], bb.shape[0]))

@@ -5,7 +5,6 @@ manifests and give ODMD's published Box_LS row."""
 from __future__ import annotations
 
 import json
-import os
 import pickle
 from pathlib import Path
 
@@ -18,7 +17,6 @@ from odms_data.cli.import_commands import odmd as odmd_command
 from odms_data.importers.odmd import ODMD_SETS
 from odms_data.store.reader import open_store
 
-ODMD_DATA = Path(os.environ.get("ODMD_DATA") or Path(__file__).resolve().parents[3] / "shared/odmd/data")
 PUBLISHED_TEST = {"odmd-normal-test": 0.00, "odmd-perturb-motion-test": 4.47,
                   "odmd-perturb-detection-test": 21.60, "odmd-robot-test": 21.23}  # ODMD README, Box_LS
 
@@ -95,14 +93,8 @@ def test_a_set_that_differs_from_its_manifest_is_refused(tmp_path):
     assert not (tmp_path / "out" / "odmd-normal-val.zarr").exists()
 
 
-def _odmd_data() -> Path:
-    if not ODMD_DATA.is_dir():
-        pytest.skip(f"ODMD's data folder is not here ({ODMD_DATA}); set ODMD_DATA to griffbr/ODMD's data/")
-    return ODMD_DATA
-
-
-def test_odmds_test_sets_import_verified_and_give_the_published_box_ls(tmp_path):
-    data, run = _odmd_data(), CliRunner()
+def test_odmds_test_sets_import_verified_and_give_the_published_box_ls(tmp_path, odmd_data):
+    data, run = odmd_data, CliRunner()
     args = [a for s in PUBLISHED_TEST for a in ("--set", s)]
     res = run.invoke(main, ["import", "odmd", str(data), "-o", str(tmp_path / "s"), *args])
     assert res.exit_code == 0, res.output

@@ -11,11 +11,14 @@ import mlcroissant
 import numpy as np
 import pytest
 import yaml
+from click.testing import CliRunner
 
+from odms_data.cli import main
 from odms_data.cli.fixes import with_fix
 from odms_data.errors import InputError
 from odms_data.publish.hub_export import export_hub, sha256
-from odms_data.publish.hub_metadata import licence_of
+from odms_data.publish.hub_metadata import columns_of, licence_of
+from odms_data.simulate.generate_box_store import generate_box_store
 from odms_data.simulate.generate_store import generate
 from odms_data.simulate.params import GeneratorParams
 from odms_data.store.format import StoreAttrs
@@ -83,6 +86,71 @@ def test_generated_stores_round_trip_through_datasets_and_croissant(tmp_path):
         np.testing.assert_array_equal(_unpack(first["examples/masks"], 60, 83), s.example(0).masks)
 
 
+def _assert_box_round_trip(rows, store_path) -> None:
+    """Every row is its store example of boxes: ids, sizes, label and each frame's box, movement
+    and depth, float for float."""
+    with open_store(str(store_path)) as s:
+        count = 0
+        for i, row in enumerate(rows):
+            count += 1
+            f = s.frames_of(i)
+            assert (row["example_id"], row["source"], row["split"]) == (s.example_ids[i], s.sources[i],
+                                                                        s.attrs.split)
+            assert (row["n"], row["height"], row["width"]) == (len(f), s.height, s.width)
+            np.testing.assert_array_equal(np.array(row["box"], float), s.box[f])
+            np.testing.assert_array_equal(np.array(row["move"], float), s.move[f])
+            np.testing.assert_array_equal(np.array(row["depth"], float), s.depth[f])  # NaN where unknown
+            np.testing.assert_array_equal(row["d1"], s.d1[i])
+        assert count == s.n_examples
+
+
+def test_generated_box_stores_round_trip_through_datasets_and_croissant(tmp_path):
+    a, b = tmp_path / "b.zarr", tmp_path / "c.h5"
+    run = CliRunner()
+    res = run.invoke(main, ["generate", "--boxes", "odmd", "-n", "50", "--name", "boxes-val", "-o", str(a)])
+    assert res.exit_code == 0, res.output
+    generate_box_store(str(b), 7, "odmd-perturb-detection", 2, split="boxes-test")
+    out = tmp_path / "hub"
+    res = run.invoke(main, ["export", str(a), str(b), "-o", str(out), "--examples-per-file", "20", "--json"])
+    assert res.exit_code == 0, res.output
+    assert [(e["split"], e["examples"], len(e["files"])) for e in json.loads(res.stdout)["splits"]] == [
+        ("boxes-val", 50, 3), ("boxes-test", 7, 1)]
+
+    ds = datasets.load_dataset(str(out), cache_dir=str(tmp_path / "cache"))
+    assert sorted(ds) == ["boxes_test", "boxes_val"]
+    assert ds["boxes_val"].column_names == list(columns_of("boxes"))  # no masks, no z
+    _assert_box_round_trip(ds["boxes_val"], a)
+    _assert_box_round_trip(ds["boxes_test"], b)
+
+    card = (out / "README.md").read_text()
+    header = yaml.safe_load(card.split("---")[1])
+    assert header["license"] == "mit" and "bounding-boxes" in header["tags"]
+    assert "@inproceedings{GrCoCVPR21" in card and "| `box` | list of Float |" in card
+    assert "`masks`" not in card and "`z`" not in card
+
+    meta = json.loads((out / "croissant.json").read_text())
+    assert [f["name"] for f in meta["recordSet"][0]["field"]] == list(columns_of("boxes"))
+    assert meta["url"] == "https://github.com/griffbr/ODMD"
+    records = list(mlcroissant.Dataset(jsonld=str(out / "croissant.json")).records("examples"))
+    assert len(records) == 57
+    first = next(r for r in records if r["examples/example_id"] == b"boxes-val/0000000")
+    with open_store(str(a)) as s:
+        np.testing.assert_array_equal(np.array(first["examples/d1"]), s.d1[0])
+        np.testing.assert_array_equal(np.stack(first["examples/box"]), s.box[s.frames_of(0)])
+
+
+def test_export_holds_one_kind_and_refuses_a_mix_in_one_line(tmp_path):
+    masks, boxes = tmp_path / "m.zarr", tmp_path / "b.zarr"
+    generate(str(masks), 3, PARAMS, seed=1)
+    generate_box_store(str(boxes), 3, "odmd", 1, split="boxes")
+    r = subprocess.run([sys.executable, "-m", "odms_data.cli", "export", str(masks), str(boxes), "-o",
+                        str(tmp_path / "hub")], capture_output=True, text=True)
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 2 and len(lines) == 1, r.stderr
+    assert f"{boxes}: a store of boxes cannot join an export of stores of masks" in lines[0]
+    assert not (tmp_path / "hub").exists() and not (tmp_path / "hub.partial").exists()
+
+
 def test_export_keeps_what_the_user_had(tmp_path):
     store = tmp_path / "s.zarr"
     generate(str(store), 3, PARAMS, seed=1)
@@ -128,3 +196,22 @@ def test_official_driving_split_round_trips(official_stores, tmp_path):
         unknown = frozenset(i for i in range(s.n_examples) if np.isnan(s.depth[s.frames_of(i)]).any())
     assert unknown  # the release's NaN depths at empty masks
     _assert_round_trip(ds, official_stores["driving-val"], every=5, also=unknown)
+
+
+def test_odmds_robot_set_round_trips_with_its_unknown_depths(odmd_data, tmp_path):
+    """ODMD's robot val set, imported: NaN depths at its inner frames; ODMD states no licence for
+    its data, so the user gives one."""
+    res = CliRunner().invoke(main, ["import", "odmd", str(odmd_data), "-o", str(tmp_path / "s"),
+                                    "--set", "odmd-robot-val"])
+    assert res.exit_code == 0, res.output
+    store, out = tmp_path / "s" / "odmd-robot-val.zarr", tmp_path / "hub"
+    with pytest.raises(InputError, match="licence of split odmd-robot-val is not known"):
+        export_hub([str(store)], str(out))
+    assert [e.files for e in export_hub([str(store)], str(out), licence="unknown")] == [
+        [f"data/odmd-robot-val/odmd-robot-val-{k:05d}-of-00003.parquet" for k in range(3)]]
+    header = yaml.safe_load((out / "README.md").read_text().split("---")[1])
+    assert header["license"] == "unknown" and header["pretty_name"] == "hub"
+    with open_store(str(store)) as s:
+        assert np.isnan(s.depth).any()  # the robot sets' inner frames
+    _assert_box_round_trip(datasets.load_dataset(str(out), split="odmd_robot_val",
+                                                 cache_dir=str(tmp_path / "cache")), store)

@@ -109,11 +109,3 @@ def test_show_draws_each_box_of_an_example_of_boxes(tmp_path):
     sheet = np.asarray(Image.open(out))
     first, second = sheet[24:204, 4:244], sheet[24:204, 248:488]  # the two thumbnails (240 wide)
     assert (first == 255).sum() > 20 and (second == 255).sum() == 0
-
-
-def test_export_refuses_a_store_of_boxes_in_one_line_and_writes_nothing(tmp_path):
-    path = str(tmp_path / "b.zarr")
-    write_box_store(path, ideal_rows(), _attrs())
-    res = CliRunner().invoke(main, ["export", path, "-o", str(tmp_path / "hub")])
-    assert res.exit_code == 2 and "a store of boxes cannot be exported to the Hub yet" in res.output
-    assert not (tmp_path / "hub").exists()
