@@ -3,7 +3,8 @@
 
 Run by hand, with an old checkout installed in its own venv:
 
-    git -C . archive 3f8cae7 | tar -x -C /tmp/old && python3 -m venv /tmp/old/.venv  # + pip install -e
+    git archive BEFORE | tar -x -C /tmp/old  # BEFORE: main just before #27 was merged
+    python3 -m venv /tmp/old/.venv && /tmp/old/.venv/bin/pip install -e /tmp/old
     python benchmarks/untrusted_before_after.py --before /tmp/old/.venv/bin/odms-data \\
         --after .venv/bin/odms-data
 
@@ -273,9 +274,10 @@ def _run_in_store(exe: str, cwd: Path) -> list[str]:
 
 
 def _train_sigterm(exe: str, cwd: Path) -> list[str]:
-    """test_train_stopped_by_sigterm_exits_143, through the executable."""
-    shutil.copytree(FIXTURES / STORE, cwd / STORE)
-    r = odms(exe, ["train", "-o", "run", "--val", STORE, "--iterations", "100000", "--batch-size", "2",
+    """test_train_stopped_by_sigterm_exits_143, through the executable, on the test's store (examples
+    of the standard preset's frames, as many as train's default n_obs)."""
+    shutil.copytree(FIXTURES / "train.zarr", cwd / "v.zarr")
+    r = odms(exe, ["train", "-o", "run", "--val", "v.zarr", "--iterations", "100000", "--batch-size", "2",
                    "--workers", "0", "--device", "cpu"], cwd, TORCH_AS, stop_when=cwd / "run" / "curves.csv")
     last = (r.stderr.strip().splitlines() or [""])[-1]
     broken = [] if r.returncode == 143 else [f"exit {r.returncode}"]
@@ -594,6 +596,7 @@ def main() -> None:
         FIXTURES = WORK / "fixtures"
         FIXTURES.mkdir()
         make_valid(FIXTURES / STORE)
+        W.generate(str(FIXTURES / "train.zarr"), 4, W.PRESETS["standard"], 5, workers=1)
         CATALOGUE = H.prepare(WORK / "catalogue")
         HUGE_PNG = I.png(30000, 30000)
         groups = args.groups.split(",")
