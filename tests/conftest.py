@@ -21,6 +21,8 @@ SHARED = Path(os.environ.get("ODMS_SHARED", REPO.parent / "shared"))
 ARCHIVE = SHARED / "data" / "odms-v1.tar.gz"
 # ODMD's data/ folder (griffbr/ODMD): $ODMD_DATA, else ../shared/odmd/data beside the project.
 ODMD_DATA = Path(os.environ.get("ODMD_DATA") or REPO.parent / "shared/odmd/data")
+ODMD_PRETRAINED = Path(os.environ.get("ODMD_PRETRAINED")
+                       or REPO.parent / "shared/odmd/model/DBox_pretrained_paper.pt")
 
 
 @pytest.fixture(autouse=True, scope="module")
@@ -69,3 +71,12 @@ def odmd_data() -> Path:
     if not ODMD_DATA.is_dir():
         pytest.skip(f"ODMD's data folder is not here ({ODMD_DATA}); set ODMD_DATA to griffbr/ODMD's data/")
     return ODMD_DATA
+
+
+@pytest.fixture(scope="session")
+def odmd_pretrained() -> Path:
+    """ODMD's published DBox weights file (read-only)."""
+    if not ODMD_PRETRAINED.is_file():
+        pytest.skip(f"ODMD's pretrained DBox is not here ({ODMD_PRETRAINED}); set ODMD_PRETRAINED to "
+                    "griffbr/ODMD's DBox_pretrained_paper.pt")
+    return ODMD_PRETRAINED

@@ -23,7 +23,6 @@ from odms_data.simulate.generate_store import generate
 from odms_data.simulate.params import GeneratorParams
 
 SMALL = GeneratorParams(image_size=(120, 160), sizes=(30, 60, 90))
-PRETRAINED = Path("/work/shared-odmd/model/DBox_pretrained_paper.pt")
 
 
 def rows(path: Path) -> list[dict[str, str]]:
@@ -120,15 +119,14 @@ def test_a_weights_file_predicts_a_store(tmp_path, val_store):
     assert got == pytest.approx(_predict_direct(weights, val_store).tolist(), rel=1e-6)
 
 
-@pytest.mark.skipif(not PRETRAINED.is_file(), reason="ODMD's pretrained DBox is not on this machine")
-def test_the_authors_pretrained_dbox_predicts_a_store(tmp_path, val_store):
+def test_the_authors_pretrained_dbox_predicts_a_store(tmp_path, val_store, odmd_pretrained):
     preds = tmp_path / "p.csv"
-    r = CliRunner().invoke(main, ["predict", "--model", "dbox", "--checkpoint", str(PRETRAINED), "--data",
-                                  str(val_store), "-o", str(preds), "--workers", "0", "--json"])
+    r = CliRunner().invoke(main, ["predict", "--model", "dbox", "--checkpoint", str(odmd_pretrained),
+                                  "--data", str(val_store), "-o", str(preds), "--workers", "0", "--json"])
     assert r.exit_code == 0, r.output
     assert json.loads(r.stdout)["predictions"] == 12
     got = [float(g["d1"]) for g in rows(preds)]
-    want = _predict_direct(torch.load(PRETRAINED, map_location="cpu", weights_only=True), val_store)
+    want = _predict_direct(torch.load(odmd_pretrained, map_location="cpu", weights_only=True), val_store)
     assert got == pytest.approx(want.tolist(), rel=1e-6)
 
 

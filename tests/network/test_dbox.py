@@ -17,7 +17,6 @@ from odms_data.network.dbox import DBox, expected_shapes, load_pretrained, param
 # counted by hand from its definition: W 7x512, U 128x512, bias 512, V 128x512; linears
 # 198->256, five of 326->256, 256->1. Their DBox_pretrained_paper.pt holds this many values too.
 AUTHORS_COUNT = 7 * 512 + 128 * 512 + 512 + 128 * 512 + (198 * 256 + 256) + 5 * (326 * 256 + 256) + 257
-PRETRAINED = "/work/shared-odmd/model/DBox_pretrained_paper.pt"
 
 
 def test_parameter_count_is_the_authors():
@@ -105,7 +104,6 @@ def test_missing_and_oversized_files_refused(tmp_path):
         load_pretrained(big)
 
 
-@pytest.mark.skipif(not os.path.exists(PRETRAINED), reason=f"ODMD's pretrained DBox not at {PRETRAINED}")
-def test_authors_checkpoint_loads():
-    model = load_pretrained(PRETRAINED)
+def test_authors_checkpoint_loads(odmd_pretrained):
+    model = load_pretrained(odmd_pretrained)
     assert parameter_count(model) == AUTHORS_COUNT
