@@ -4,7 +4,6 @@
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -12,8 +11,8 @@ import numpy as np
 from ..errors import InputError
 from ..simulate.box_examples import BOX_PRESETS, BoxParams, sample_box_examples
 from ..store.boxes import example_boxes
-from ..store.reader import Store, open_store
 from .box_transform import DBOX_TRANSFORM, BoxTransform
+from .store_rows import StoreRows
 
 
 class GeneratedBoxExamples:
@@ -44,27 +43,13 @@ class GeneratedBoxExamples:
         return {**out, "index": index}
 
 
-class StoreBoxExamples:
+class StoreBoxExamples(StoreRows):
     """The examples of the store at `path` as box examples (store/boxes.py), transformed;
-    `example(i)` by row. The store is opened lazily in each process, as sources.StoreExamples."""
+    `example(i)` by row."""
 
     def __init__(self, path: str, transform: BoxTransform = DBOX_TRANSFORM) -> None:
-        self.path, self.transform = str(path), transform
-        self._store: Store | None = None
-        self._pid: int | None = None
-        self._len = len(self.store)
-
-    @property
-    def store(self) -> Store:
-        if self._store is None or self._pid != os.getpid():
-            self._store, self._pid = open_store(self.path), os.getpid()
-        return self._store
-
-    def __getstate__(self) -> dict:
-        return {**self.__dict__, "_store": None, "_pid": None}
-
-    def __len__(self) -> int:
-        return self._len
+        self.transform = transform
+        super().__init__(path)
 
     def example(self, i: int) -> dict[str, np.ndarray]:
         return {key: a[0] for key, a in self.batch([i]).items()}

@@ -8,7 +8,6 @@ and the store reopened on first use.
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -20,9 +19,9 @@ from ..simulate.object_model import sample_examples
 from ..simulate.params import PRESETS, GeneratorParams
 from ..simulate.shrink import shrink_packed
 from ..store.masks import unpack
-from ..store.reader import Store, open_store
 from .box_sources import GeneratedBoxExamples, StoreBoxExamples
 from .box_transform import DBOX_TRANSFORM, BoxTransform
+from .store_rows import StoreRows
 from .transforms import PAPER_TRANSFORM, Transform
 
 STANDARD = PRESETS["standard"]
@@ -50,26 +49,12 @@ def collate(examples: list[dict[str, np.ndarray]], empty: Empty = np.empty) -> d
     return out
 
 
-class StoreExamples:
+class StoreExamples(StoreRows):
     """The examples of the store at `path`, transformed; `example(i)` by row."""
 
     def __init__(self, path: str, transform: Transform = PAPER_TRANSFORM) -> None:
-        self.path, self.transform = str(path), transform
-        self._store: Store | None = None
-        self._pid: int | None = None
-        self._len = len(self.store)
-
-    @property
-    def store(self) -> Store:
-        if self._store is None or self._pid != os.getpid():
-            self._store, self._pid = open_store(self.path), os.getpid()
-        return self._store
-
-    def __getstate__(self) -> dict:
-        return {**self.__dict__, "_store": None, "_pid": None}
-
-    def __len__(self) -> int:
-        return self._len
+        self.transform = transform
+        super().__init__(path)
 
     def _chosen(self, i: int) -> np.ndarray:
         """Frame rows of the observations of example i the transform uses."""
