@@ -39,7 +39,7 @@ def solve(sqrt_area: np.ndarray, dz: np.ndarray) -> tuple[np.ndarray, np.ndarray
     """Batched VOS-DE on (E, k) arrays: (d1 estimates, unsolvable mask)."""
     A = np.stack([sqrt_area, np.ones_like(sqrt_area)], axis=-1)  # (E, k, 2)
     x0, bad = first_unknown(A, dz * sqrt_area)
-    return -x0, bad
+    return 0.0 - x0, bad  # not -x0: an unsolvable row stays 0.0, not -0.0
 
 
 def vosde(store: Store, n_obs: int = DEFAULT_N_OBS) -> BaselineResult:
