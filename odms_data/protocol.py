@@ -11,6 +11,8 @@ from collections.abc import Iterable
 
 import numpy as np
 
+from .errors import InputError
+
 OFFICIAL_DOMAINS = ("robot", "driving", "normal", "perturb")
 FAMILIES = ("val", "test")
 OFFICIAL_SPLITS = tuple(f"{d}-{f}" for f in FAMILIES for d in OFFICIAL_DOMAINS)
@@ -43,6 +45,13 @@ def evenly_spaced(first: int, last: int, count: int) -> np.ndarray:
     """`count` indices from `first` to `last`, both included: `numpy.linspace` truncated to
     integers. The robot protocol, VOS-DE and the network inputs all choose observations so."""
     return np.linspace(first, last, count).astype(np.int64)
+
+
+def observation_indices(n: int, n_obs: int) -> np.ndarray:
+    """Indices of `n_obs` evenly spaced observations out of `n`, first and last included."""
+    if not 2 <= n_obs <= n:
+        raise InputError(f"need 2 <= n_obs <= n, got n_obs={n_obs} for an example of {n} frames")
+    return evenly_spaced(0, n - 1, n_obs)
 
 
 def observation_columns(n: int, n_obs: int) -> np.ndarray:

@@ -118,24 +118,10 @@ def vosde(stores, data, n_obs, output, overwrite, as_json):
       odms-data baseline vosde robot-test driving-test --n-obs 5 -o vosde5.csv
       odms-data baseline vosde sim-val.zarr -o sim.csv && odms-data score sim.csv --data sim-val.zarr
     """
-    from ..evaluation.evaluate import Evaluation
     from ..evaluation.vosde import vosde
 
-    check_replaceable(output, overwrite, option="output", suffixes=(".csv",))
-    evaluation = Evaluation(data)
-    paths = evaluation.stores(stores)
-    with progress(len(paths), "VOS-DE (stores)") as update:
-        n_rows, counts = evaluation.baseline(paths, output, lambda s: vosde(s, n_obs), overwrite=overwrite,
-                                             progress=update)
-    if as_json:
-        echo_json({"output": output, "n_obs": n_obs, "predictions": n_rows,
-                   "splits": [c.to_json() for c in counts]})
-        return
-    for c in counts:
-        echo_text(f"{c.split}: {c.examples} examples, {c.unsolvable} unsolvable (predicted 0), "
-                   f"{c.flagged} with an empty mask among the used observations")
-    click.echo(f"wrote {output}: {n_rows} predictions (VOS-DE, n = {n_obs})")
-
+    _baseline(stores, data, output, overwrite, as_json, "VOS-DE", lambda s: vosde(s, n_obs),
+              {"n_obs": n_obs}, "an empty mask", f"n = {n_obs}")
 
 
 @baseline.command("box-ls")
@@ -164,23 +150,33 @@ def box_ls(stores, data, n_obs, odmd_conversion, output, overwrite, as_json):
       odms-data baseline box-ls sim-val.zarr -o sim.csv && odms-data score sim.csv --data sim-val.zarr
     """
     from ..evaluation.box_ls import box_ls as box_ls_of
+
+    how = ", ODMD's conversion" if odmd_conversion else ""
+    settings = {"n_obs": n_obs, "odmd_conversion": odmd_conversion}
+    _baseline(stores, data, output, overwrite, as_json, "Box_LS", lambda s: box_ls_of(s, **settings),
+              settings, "a missing detection", f"n = {n_obs}{how}")
+
+
+def _baseline(stores, data, output, overwrite, as_json, name, method, settings, flagged, how):
+    """Run baseline `method` (`name`) over the stores and print its counts: as JSON (`settings`
+    after the output), or a line per store (`flagged`: what one such observation is) and the file's
+    (`how`: the run's settings)."""
     from ..evaluation.evaluate import Evaluation
 
     check_replaceable(output, overwrite, option="output", suffixes=(".csv",))
     evaluation = Evaluation(data)
     paths = evaluation.stores(stores)
-    with progress(len(paths), "Box_LS (stores)") as update:
-        n_rows, counts = evaluation.baseline(paths, output, lambda s: box_ls_of(s, n_obs, odmd_conversion),
-                                             overwrite=overwrite, progress=update)
+    with progress(len(paths), f"{name} (stores)") as update:
+        n_rows, counts = evaluation.baseline(paths, output, method, overwrite=overwrite, progress=update)
     if as_json:
-        echo_json({"output": output, "n_obs": n_obs, "odmd_conversion": odmd_conversion,
-                   "predictions": n_rows, "splits": [c.to_json() for c in counts]})
+        echo_json({"output": output, **settings, "predictions": n_rows,
+                   "splits": [c.to_json() for c in counts]})
         return
     for c in counts:
         echo_text(f"{c.split}: {c.examples} examples, {c.unsolvable} unsolvable (predicted 0), "
-                  f"{c.flagged} with a missing detection among the used observations")
-    how = ", ODMD's conversion" if odmd_conversion else ""
-    click.echo(f"wrote {output}: {n_rows} predictions (Box_LS, n = {n_obs}{how})")
+                  f"{c.flagged} with {flagged} among the used observations")
+    click.echo(f"wrote {output}: {n_rows} predictions ({name}, {how})")
+
 
 @click.command()
 @click.option("--family", type=click.Choice(FAMILIES), default="test", show_default=True,

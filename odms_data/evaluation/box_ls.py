@@ -29,6 +29,7 @@ from ..errors import InputError
 from ..store.boxes import chosen_frames, example_boxes
 from ..store.reader import Store
 from .baseline_result import BaselineResult
+from .least_squares import first_unknown
 
 DEFAULT_N_OBS = 10
 
@@ -55,20 +56,7 @@ def solve(boxes: np.ndarray, move: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     A = np.zeros((E, 2 * k, 3))
     A[:, :k, 0], A[:, k:, 0] = w, h
     A[:, :k, 1], A[:, k:, 2] = 1.0, 1.0
-    b = np.concatenate([w * move, h * move], axis=1)
-    At = A.swapaxes(1, 2)
-    AtA, Atb = At @ A, At @ b[..., None]
-    d1, bad = np.zeros(E), np.zeros(E, bool)
-    try:
-        return np.linalg.solve(AtA, Atb)[:, 0, 0], bad
-    except np.linalg.LinAlgError:
-        pass  # at least one singular system: solve one by one to find which
-    for i in range(E):
-        try:
-            d1[i] = np.linalg.solve(AtA[i], Atb[i])[0, 0]
-        except np.linalg.LinAlgError:
-            bad[i] = True
-    return d1, bad
+    return first_unknown(A, np.concatenate([w * move, h * move], axis=1))
 
 
 def box_ls(store: Store, n_obs: int = DEFAULT_N_OBS, odmd_conversion: bool = False) -> BaselineResult:

@@ -52,10 +52,6 @@ class Predictions:
     def __len__(self) -> int:
         return len(self.frame)
 
-    @property
-    def splits(self) -> list[str]:
-        return sorted(self.frame["split"].unique())
-
 
 def _listing(items: Sequence[str], total: int | None = None) -> str:
     """'a, b, c' (+ 'and N more')."""

@@ -30,29 +30,16 @@ from ..errors import InputError
 from ..protocol import observation_columns
 from ..store.reader import Store
 from .baseline_result import BaselineResult
+from .least_squares import first_unknown
 
 DEFAULT_N_OBS = 10
-
-
 
 
 def solve(sqrt_area: np.ndarray, dz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Batched VOS-DE on (E, k) arrays: (d1 estimates, unsolvable mask)."""
     A = np.stack([sqrt_area, np.ones_like(sqrt_area)], axis=-1)  # (E, k, 2)
-    At = A.swapaxes(1, 2)
-    AtA, Atb = At @ A, At @ (dz * sqrt_area)[..., None]
-    try:
-        x = np.linalg.solve(AtA, Atb)[..., 0]
-        return -x[:, 0], np.zeros(len(A), bool)
-    except np.linalg.LinAlgError:
-        pass  # at least one singular system: solve one by one to find which
-    d1, bad = np.zeros(len(A)), np.zeros(len(A), bool)
-    for i in range(len(A)):
-        try:
-            d1[i] = -np.linalg.solve(AtA[i], Atb[i])[0, 0]
-        except np.linalg.LinAlgError:
-            bad[i] = True
-    return d1, bad
+    x0, bad = first_unknown(A, dz * sqrt_area)
+    return 0.0 - x0, bad  # not -x0: an unsolvable row stays 0.0, not -0.0
 
 
 def vosde(store: Store, n_obs: int = DEFAULT_N_OBS) -> BaselineResult:

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..protocol import evenly_spaced
+from ..protocol import evenly_spaced, observation_indices
 
 DBOX_OBS = 10  # observations DBox takes (ODMD's num_pos)
 FEATURES = 7  # per observation: 4 box coordinates, 3 movement components
@@ -58,9 +58,7 @@ class BoxTransform:
 
     def select(self, n: int) -> np.ndarray:
         """Which of an example's n frames give the boxes."""
-        if not 2 <= self.n_obs <= n:
-            raise InputError(f"need 2 <= n_obs <= n, got n_obs={self.n_obs} for an example of {n} frames")
-        return evenly_spaced(0, n - 1, self.n_obs)
+        return observation_indices(n, self.n_obs)
 
     def __call__(self, boxes: np.ndarray, move: np.ndarray, depth: float) -> dict[str, np.ndarray]:
         """One example's inputs: boxes (n, 4), move (n, 3), depth."""

@@ -24,7 +24,7 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
-from ..protocol import evenly_spaced
+from ..protocol import observation_indices
 from ..simulate.shrink import resize_masks
 from .targets import labels
 
@@ -33,13 +33,6 @@ cv2.setNumThreads(1)
 PAPER_SIZE = (112, 112)
 LABELS = ("d1", "d1_norm", "scale")
 TEMPLATE_SIZE = 224  # the released radial template (data/misc/radial2D.png) is 224x224
-
-
-def observation_indices(n: int, n_obs: int) -> np.ndarray:
-    """Indices of `n_obs` evenly spaced observations out of `n`, first and last included."""
-    if not 2 <= n_obs <= n:
-        raise InputError(f"need 2 <= n_obs <= n, got n_obs={n_obs} for an example of {n} frames")
-    return evenly_spaced(0, n - 1, n_obs)
 
 
 def distances(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -73,10 +73,6 @@ class DBox(nn.Module):
         return self.linears[-1](d).squeeze(1)
 
 
-def parameter_count(model: nn.Module) -> int:
-    return sum(p.numel() for p in model.parameters() if p.requires_grad)
-
-
 def expected_shapes(n_obs: int = DBOX_OBS) -> dict[str, tuple[int, ...]]:
     """Every parameter's name and shape in DBox's state dict, without building the network."""
     seen = n_obs * FEATURES

@@ -25,10 +25,11 @@ if TYPE_CHECKING:
     from .reader import Store
 
 
-def frame_tails(z: np.ndarray, depth: np.ndarray) -> np.ndarray:
-    """(k, 16) uint8: what each frame's digest hashes after its mask, its z then its depth as
-    little-endian float64, every NaN written as the one canonical quiet NaN."""
-    v = np.stack([z, depth], axis=1).astype("<f8")
+def frame_tails(*columns: np.ndarray) -> np.ndarray:
+    """(k, 8 c) uint8: the c columns of k frames as little-endian float64, every NaN written as the
+    one canonical quiet NaN: what a frame of masks hashes after its mask (z, depth), or all that a
+    frame of boxes hashes (its box, move and depth)."""
+    v = np.column_stack(columns).astype("<f8")
     v[np.isnan(v)] = np.nan
     return v.view(np.uint8)
 
@@ -74,10 +75,8 @@ def padded_frame_digests(packed: np.ndarray, y0: list[int], y1: list[int], tails
 
 def box_frame_digests(box: np.ndarray, move: np.ndarray, depth: np.ndarray) -> np.ndarray:
     """(k, 32) uint8: SHA-256 of each frame of a store of boxes: its box (4), move (3) and depth
-    as little-endian float64, NaN canonical as in `frame_tails`."""
-    v = np.concatenate([box, move, np.asarray(depth)[:, None]], axis=1).astype("<f8")
-    v[np.isnan(v)] = np.nan
-    rows = v.view(np.uint8)
+    as little-endian float64, NaN canonical (`frame_tails`)."""
+    rows = frame_tails(box, move, depth)
     return np.stack([np.frombuffer(hashlib.sha256(BOX_PREFIX + r.tobytes()).digest(), np.uint8)
                      for r in rows]) if len(rows) else np.zeros((0, 32), np.uint8)
 

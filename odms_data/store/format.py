@@ -208,10 +208,7 @@ def encode_strings(values: list[str]) -> np.ndarray:
     """(E, L) uint8 NUL-padded UTF-8 matrix of `values` (L >= 1)."""
     raw = [v.encode() for v in values]
     width = max([1, *map(len, raw)])
-    out = np.zeros((len(raw), width), np.uint8)
-    for i, b in enumerate(raw):
-        out[i, : len(b)] = np.frombuffer(b, np.uint8)
-    return out
+    return np.array(raw, f"S{width}").view(np.uint8).reshape(len(raw), width)
 
 
 def decode_strings(matrix: np.ndarray) -> list[str]:

@@ -266,18 +266,16 @@ class Store:
         if not 0 <= i < self.n_examples:
             raise InputError(f"{self.path}: example row {i} is out of range 0..{self.n_examples - 1}")
         frames = self.frames_of(i)  # rows inside the store: frame_index is checked when read
-        if self.kind == "boxes":  # z: the camera's position on the optical axis from the last frame
-            return Example(self.example_ids[i], self.sources[i], float(self.d1[i]), frames,
-                           0.0 - self.move[frames, 2], self.depth[frames],
-                           np.zeros((0, self.height, self.width), bool), self.box[frames])
+        boxes, no_masks = self.kind == "boxes", np.zeros((0, self.height, self.width), bool)
         return Example(
             example_id=self.example_ids[i],
             source=self.sources[i],
             d1=float(self.d1[i]),
             frames=frames,
-            z=self.z[frames],
+            z=0.0 - self.move[frames, 2] if boxes else self.z[frames],  # boxes: camera z from the last frame
             depth=self.depth[frames],
-            masks=self.read_masks(frames) if masks else np.zeros((0, self.height, self.width), bool),
+            masks=self.read_masks(frames) if masks and not boxes else no_masks,
+            boxes=self.box[frames] if boxes else None,
         )
 
     def __iter__(self):

@@ -15,11 +15,11 @@ from odms_data.loaders.targets import labels
 from odms_data.loaders.transforms import (
     Transform,
     distances,
-    observation_indices,
     radial_image,
     radial_template,
     resize_masks,
 )
+from odms_data.protocol import observation_indices
 from odms_data.simulate.batch_render import render_boxes, render_masks, render_shrunk
 from odms_data.simulate.object_model import sample_example
 from odms_data.simulate.params import GeneratorParams, preset

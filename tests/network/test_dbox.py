@@ -11,12 +11,16 @@ import pytest
 import torch
 
 from odms_data.errors import InputError
-from odms_data.network.dbox import DBox, expected_shapes, load_pretrained, parameter_count
+from odms_data.network.dbox import DBox, expected_shapes, load_pretrained
 
 # The authors' DBox (griffbr/ODMD dbox/dbox.py with config/model/DBox.yaml, n_obs = num_pos = 10)
 # counted by hand from its definition: W 7x512, U 128x512, bias 512, V 128x512; linears
 # 198->256, five of 326->256, 256->1. Their DBox_pretrained_paper.pt holds this many values too.
 AUTHORS_COUNT = 7 * 512 + 128 * 512 + 512 + 128 * 512 + (198 * 256 + 256) + 5 * (326 * 256 + 256) + 257
+
+
+def parameter_count(model: torch.nn.Module) -> int:
+    return sum(p.numel() for p in model.parameters() if p.requires_grad)
 
 
 def test_parameter_count_is_the_authors():
