@@ -36,6 +36,8 @@ def write_box_store(path: str, rows: BoxRows, attrs: StoreAttrs, fmt: str | None
     `check(attrs)` may raise to refuse the store before anything is written. Returns the content
     digest."""
     E, n = rows.boxes.shape[:2]
+    if E == 0 or n == 0:
+        raise InputError(f"{path}: nothing to write (no examples or no frames)")
     box, move = rows.boxes.reshape(E * n, 4), rows.move.reshape(E * n, 3)
     depth = rows.depth.reshape(E * n)
     problems = (box_problems(box, move) + id_problems(rows.ids, attrs.split)

@@ -87,6 +87,16 @@ def test_a_non_finite_box_is_refused_before_anything_is_written(tmp_path):
     assert not (tmp_path / "b.zarr").exists()
 
 
+@pytest.mark.parametrize("examples, frames", [(slice(0), slice(None)), (slice(None), slice(0))])
+def test_rows_with_no_example_or_no_frame_are_refused_in_one_line(tmp_path, examples, frames):
+    r = ideal_rows()
+    rows = BoxRows(r.boxes[examples, frames], r.move[examples, frames], r.depth[examples, frames],
+                   r.d1[examples], r.ids[examples], r.sources[examples])
+    with pytest.raises(InputError, match="nothing to write"):
+        write_box_store(str(tmp_path / "b.zarr"), rows, _attrs())
+    assert not (tmp_path / "b.zarr").exists()
+
+
 def test_validate_finds_a_label_that_is_not_the_last_frames_depth(tmp_path):
     rows = ideal_rows()
     rows.depth[0, -1] += 0.5
