@@ -31,6 +31,18 @@ def storage_options(path: str) -> dict[str, Any] | None:
     return {"auto_mkdir": True} if str(path).startswith("file://") else None
 
 
+def url_filesystem(url: str) -> tuple[Any, str]:
+    """The fsspec filesystem of a store's URL and the store's path in it, its listings of that
+    path forgotten. fsspec shares one filesystem per process and caches what it lists: without
+    this a store replaced since (by zarr, through another instance) reads as the old one's files,
+    and on S3 an object whose ETag changed cannot be opened."""
+    from fsspec.core import url_to_fs
+
+    fs, root = url_to_fs(url)
+    fs.invalidate_cache(root)
+    return fs, root
+
+
 def detect_format(path: str) -> str:
     """'zarr' or 'hdf5', from what is at `path` or, for a new store, from its suffix."""
     p = str(path)
@@ -162,14 +174,14 @@ class ZarrBackend(Backend):
             if meta.is_file():
                 safe_json.load_file(meta, StoreError)
             return
-        import fsspec
-
         url = "/".join([str(self.path).rstrip("/"), *([name] if name else []), "zarr.json"])
         try:
-            with fsspec.open(url, "rb") as f:
-                raw = f.read(safe_json.MAX_BYTES + 1)
+            fs, key = url_filesystem(url)
+            raw = fs.cat_file(key, start=0, end=safe_json.MAX_BYTES + 1)
         except FileNotFoundError:
-            return  # zarr says what is missing
+            if not name:  # as open_backend says of a local path
+                raise StoreError(f"{self.path}: no such store (no zarr.json there)") from None
+            return  # zarr says which array is missing
         except OSError as e:
             raise StoreError(f"{url}: cannot be read ({e.strerror or e})") from None
         safe_json.loads(raw, url, StoreError)
