@@ -145,6 +145,9 @@ class ZarrBackend(Backend):
 
         use_bounded_zstd()
         self.path = path
+        # arrays opened for reading, kept: each opening reads (and checks) its zarr.json, a request
+        # or more per array and call on S3
+        self._read: dict[str, Any] | None = {} if mode == "r" else None
         # a local store is created in the fresh folder outputs.Partial made, whose marker must stay
         zarr_mode = "a" if mode == "w" and not is_url(path) else mode
         if mode != "w":
@@ -187,11 +190,16 @@ class ZarrBackend(Backend):
         safe_json.loads(raw, url, StoreError)
 
     def array(self, name: str) -> Any:
+        if self._read is not None and name in self._read:
+            return self._read[name]
         self._check_metadata(name)
         try:
-            return self.group[name]
+            arr = self.group[name]
         except Exception as e:  # malformed metadata surfaces as many exception types
             raise StoreError(f"{self.path}: array '{name}' is unreadable ({type(e).__name__}: {e})") from e
+        if self._read is not None:
+            self._read[name] = arr
+        return arr
 
     def read_attrs(self) -> dict[str, Any] | None:
         attrs = self.group.attrs.asdict().get("odms")
