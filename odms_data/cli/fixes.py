@@ -27,6 +27,10 @@ FIXES = {
     "licence": "give --license (the Hub's licence id, e.g. cc-by-4.0, or other)",
     "matrix-order-row-major": "if the numbers are row-major, say --matrix-order row-major",
     "matrix-order-column-major": "if the numbers are column-major, say --matrix-order column-major",
+    "pose-world-to-camera": "--pose is probably wrong: if the matrices map the world to the camera, say "
+                            "--pose world-to-camera",
+    "pose-camera-to-world": "--pose is probably wrong: SYNTHIA's matrices map the camera to the world, so "
+                            "say --pose camera-to-world (the default)",
 }
 
 FLAGS = {  # the library's name of an input -> the option that gives it

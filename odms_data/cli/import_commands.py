@@ -222,7 +222,8 @@ def recording(mask_dir, positions, output, windows, n_obs, threshold, d1, name, 
 @click.option("--matrix-order", type=click.Choice(["column-major", "row-major"]), default=SYNTHIA_POSES.order,
               show_default=True, help="Order of the 16 numbers of a CameraParams file.")
 @click.option("--pose", type=click.Choice(["camera-to-world", "world-to-camera"]),
-              default=SYNTHIA_POSES.direction, show_default=True, help="What the CameraParams matrix maps.")
+              default=SYNTHIA_POSES.direction, show_default=True,
+              help="What the CameraParams matrix maps (a wrong one shows where the camera turns: refused).")
 @click.option("--forward", type=click.Choice(["-z", "+z"]), default=SYNTHIA_POSES.forward, show_default=True,
               help="The optical axis among the camera's axes in that matrix.")
 @click.option("--name", default=None, help="Name used in the store and its example ids "

@@ -13,7 +13,15 @@ from ..errors import InputError
 from ..protocol import split_order
 from ..store.reader import Store, open_store
 from .baseline_result import BaselineCounts, BaselineResult
-from .ground_truth import data_locations, find_stores, load_truth, stores_by_split, verify_truth
+from .ground_truth import (
+    Location,
+    data_locations,
+    find_stores,
+    load_truth,
+    location,
+    stores_by_split,
+    verify_truth,
+)
 from .predictions import Predictions, read_predictions, write_predictions
 from .scoring import ScoreReport, score
 
@@ -25,17 +33,17 @@ class Evaluation:
 
     data: Sequence[str] = ()
 
-    def stores(self, names: Sequence[str] = ()) -> list[Path]:
+    def stores(self, names: Sequence[str] = ()) -> list[Location]:
         """The stores `names` gives (paths, or splits looked up in the data folders; a store named
         twice counts once), or every store of the data folders in split order."""
         if not names:
             every = find_stores(data_locations(self.data))
             return [every[s] for s in sorted(every, key=split_order)]
         paths = []
-        found: dict[str, Path] | None = None
+        found: dict[str, Location] | None = None
         for s in names:
-            if Path(s).exists():
-                paths.append(Path(s))
+            if isinstance(location(s), str) or Path(s).exists():
+                paths.append(location(s))
                 continue
             found = found if found is not None else find_stores(data_locations(self.data))
             if s not in found:
@@ -64,7 +72,7 @@ class Evaluation:
         return preds, report
 
     def baseline(
-        self, stores: Sequence[Path], output: str | Path, method: Callable[[Store], BaselineResult], *,
+        self, stores: Sequence[Location], output: str | Path, method: Callable[[Store], BaselineResult], *,
         overwrite: bool = False, progress: Callable[[int], None] = lambda n: None,
     ) -> tuple[int, list[BaselineCounts]]:
         """Write the predictions file of `method` (a baseline over one open store: vosde, box_ls)

@@ -1,7 +1,8 @@
 """Where ground truth comes from: stores found in the data folder(s), keyed by their split.
 
-The data folders are `--data DIR` (repeatable; a store path works too), else the folders in
-the environment variable ODMS_DATA (separated by ':'), else ~/.cache/odms-data. Every store
+The data folders are `--data DIR` (repeatable; a store path works too, and so does a store's
+URL, s3://bucket/x.zarr), else the folders in the environment variable ODMS_DATA (separated by
+':'), else ~/.cache/odms-data. Every store
 there (`*.zarr`, `*.h5`, `*.hdf5`, `*.hdf`, generated or imported) serves the split its attributes
 name, and its example ids start with `<split>/`.
 
@@ -20,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DigestMismatchError, InputError, StoreError
+from ..store.backends import is_url
 from ..store.digest import check_recorded_digest
 from ..store.format import format_of_name
 from ..store.manifests import check_against_manifest, load_manifest, split_names
@@ -28,11 +30,18 @@ from ..store.reader import open_store
 ENV_VAR = "ODMS_DATA"
 DEFAULT_DATA = "~/.cache/odms-data"
 
+Location = Path | str  # a local path, or a store's URL, kept as text (a Path folds its '//')
 
-def data_locations(given: Sequence[str] = ()) -> list[Path]:
+
+def location(given: str | Path) -> Location:
+    """A data folder or store as given: a URL is the URL of one store."""
+    return str(given) if is_url(str(given)) else Path(given)
+
+
+def data_locations(given: Sequence[str] = ()) -> list[Location]:
     """The folders (or stores) to look in: `given`, else $ODMS_DATA, else the default folder."""
     if given:
-        return [Path(g) for g in given]
+        return [location(g) for g in given]
     env = os.environ.get(ENV_VAR, "")
     if env.strip():
         return [Path(p) for p in env.split(os.pathsep) if p]
@@ -43,12 +52,14 @@ def _is_store(path: Path) -> bool:
     return format_of_name(path) is not None and not path.name.endswith(".partial")
 
 
-def find_stores(locations: Iterable[Path]) -> dict[str, Path]:
+def find_stores(locations: Iterable[Location]) -> dict[str, Location]:
     """{split: store path} over every store in `locations`; two stores of one split are an error."""
     locations = list(locations)
-    paths: list[Path] = []
+    paths: list[Location] = []
     for loc in locations:
-        if (_is_store(loc) and loc.exists()) or (loc / "zarr.json").is_file():  # a store, named any way
+        if isinstance(loc, str):  # a URL names one store: a bucket is not searched
+            paths.append(loc)
+        elif (_is_store(loc) and loc.exists()) or (loc / "zarr.json").is_file():  # a store, named any way
             paths.append(loc)
         elif loc.is_dir():
             paths += sorted(p for p in loc.iterdir() if _is_store(p))
@@ -57,15 +68,16 @@ def find_stores(locations: Iterable[Path]) -> dict[str, Path]:
     return stores_by_split(paths, locations)
 
 
-def stores_by_split(paths: Iterable[Path], locations: Sequence[Path] = ()) -> dict[str, Path]:
+def stores_by_split(paths: Iterable[Location], locations: Sequence[Location] = ()) -> dict[str, Location]:
     """{split: store path} of the stores at `paths` (one store named twice counts once); two
     stores of one split are an error."""
-    found: dict[str, Path] = {}
-    seen: set[Path] = set()
+    found: dict[str, Location] = {}
+    seen: set[Location] = set()
     for p in paths:
-        if p.resolve() in seen:
+        key = p if isinstance(p, str) else p.resolve()
+        if key in seen:
             continue
-        seen.add(p.resolve())
+        seen.add(key)
         with open_store(str(p)) as s:
             split = s.attrs.split
         if split in found:
@@ -94,7 +106,7 @@ class SplitTruth:
         return [e for e, k in zip(self.example_ids, keep, strict=True) if k]
 
 
-def load_truth(path: Path) -> SplitTruth:
+def load_truth(path: Location) -> SplitTruth:
     """The ids and labels of the store at `path` (no masks are read)."""
     with open_store(str(path)) as s:  # the reader refuses ids that are not unique or lack '<split>/'
         ids, d1 = s.example_ids, s.d1

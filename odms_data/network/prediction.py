@@ -69,8 +69,8 @@ Loaded = tuple[torch.nn.Module, TrainConfig, int]  # a network in eval mode, its
 
 
 def predict(
-    folder: RunFolder, stores: dict[str, Path], output: str | Path, *, which: str = "best", workers: int = 0,
-    device: str | None = None, overwrite: bool = False,
+    folder: RunFolder, stores: dict[str, Path | str], output: str | Path, *, which: str = "best",
+    workers: int = 0, device: str | None = None, overwrite: bool = False,
     progress: Callable[[str, int, int], None] = lambda split, done, total: None,
 ) -> tuple[int, TrainConfig, dict[str, int]]:
     """Write the predictions file (schemas/PREDICTIONS.md) of the run's `which` checkpoint for every
@@ -89,7 +89,7 @@ def predict(
 
 
 def predict_from_weights(
-    weights: str | Path, model: str, stores: dict[str, Path], output: str | Path, *, n_obs: int = 10,
+    weights: str | Path, model: str, stores: dict[str, Path | str], output: str | Path, *, n_obs: int = 10,
     workers: int = 0, device: str | None = None, overwrite: bool = False,
     progress: Callable[[str, int, int], None] = lambda split, done, total: None,
 ) -> tuple[int, TrainConfig, dict[str, int]]:
@@ -105,8 +105,8 @@ def predict_from_weights(
 
 
 def _predict(
-    loaded: dict[str, Loaded], stores: dict[str, Path], output: str | Path, workers: int, dev: torch.device,
-    overwrite: bool, progress: Callable[[str, int, int], None],
+    loaded: dict[str, Loaded], stores: dict[str, Path | str], output: str | Path, workers: int,
+    dev: torch.device, overwrite: bool, progress: Callable[[str, int, int], None],
 ) -> tuple[int, TrainConfig, dict[str, int]]:
     """Predict each store `split` with the network `loaded[split]`, write the file."""
     rows: list[tuple[str, str, float]] = []

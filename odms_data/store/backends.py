@@ -31,6 +31,18 @@ def storage_options(path: str) -> dict[str, Any] | None:
     return {"auto_mkdir": True} if str(path).startswith("file://") else None
 
 
+def url_filesystem(url: str) -> tuple[Any, str]:
+    """The fsspec filesystem of a store's URL and the store's path in it, its listings of that
+    path forgotten. fsspec shares one filesystem per process and caches what it lists: without
+    this a store replaced since (by zarr, through another instance) reads as the old one's files,
+    and on S3 an object whose ETag changed cannot be opened."""
+    from fsspec.core import url_to_fs
+
+    fs, root = url_to_fs(url)
+    fs.invalidate_cache(root)
+    return fs, root
+
+
 def detect_format(path: str) -> str:
     """'zarr' or 'hdf5', from what is at `path` or, for a new store, from its suffix."""
     p = str(path)
@@ -133,6 +145,9 @@ class ZarrBackend(Backend):
 
         use_bounded_zstd()
         self.path = path
+        # arrays opened for reading, kept: each opening reads (and checks) its zarr.json, a request
+        # or more per array and call on S3
+        self._read: dict[str, Any] | None = {} if mode == "r" else None
         # a local store is created in the fresh folder outputs.Partial made, whose marker must stay
         zarr_mode = "a" if mode == "w" and not is_url(path) else mode
         if mode != "w":
@@ -162,24 +177,29 @@ class ZarrBackend(Backend):
             if meta.is_file():
                 safe_json.load_file(meta, StoreError)
             return
-        import fsspec
-
         url = "/".join([str(self.path).rstrip("/"), *([name] if name else []), "zarr.json"])
         try:
-            with fsspec.open(url, "rb") as f:
-                raw = f.read(safe_json.MAX_BYTES + 1)
+            fs, key = url_filesystem(url)
+            raw = fs.cat_file(key, start=0, end=safe_json.MAX_BYTES + 1)
         except FileNotFoundError:
-            return  # zarr says what is missing
+            if not name:  # as open_backend says of a local path
+                raise StoreError(f"{self.path}: no such store (no zarr.json there)") from None
+            return  # zarr says which array is missing
         except OSError as e:
             raise StoreError(f"{url}: cannot be read ({e.strerror or e})") from None
         safe_json.loads(raw, url, StoreError)
 
     def array(self, name: str) -> Any:
+        if self._read is not None and name in self._read:
+            return self._read[name]
         self._check_metadata(name)
         try:
-            return self.group[name]
+            arr = self.group[name]
         except Exception as e:  # malformed metadata surfaces as many exception types
             raise StoreError(f"{self.path}: array '{name}' is unreadable ({type(e).__name__}: {e})") from e
+        if self._read is not None:
+            self._read[name] = arr
+        return arr
 
     def read_attrs(self) -> dict[str, Any] | None:
         attrs = self.group.attrs.asdict().get("odms")

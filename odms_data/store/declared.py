@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from .backends import Backend, is_url
+from .backends import Backend, is_url, url_filesystem
 from .format import arrays_of, kind_of, layout_problems
 from .hdf5_reader import DEFLATE
 
@@ -77,9 +77,7 @@ def _size_problems(backend: Backend, arrays: dict[str, Any]) -> list[str]:
 
 def _bytes_on_disk(path: str) -> int:
     if is_url(path):
-        import fsspec
-
-        fs, root = fsspec.core.url_to_fs(path)
+        fs, root = url_filesystem(path)
         return int(fs.du(root))
     local = Path(path)
     if local.is_file():
@@ -147,9 +145,7 @@ def _missing_chunk(backend: Any, name: str, arr: Any, grid: tuple[int, ...]) -> 
 def _stored_keys(path: str, name: str) -> set[str]:
     """The chunk keys stored for array `name` ('c/0/1', ...)."""
     if is_url(path):
-        import fsspec
-
-        fs, root = fsspec.core.url_to_fs(path)
+        fs, root = url_filesystem(path)
         base = f"{root.rstrip('/')}/{name}/"
         return {f[len(base):] for f in fs.find(base) if not f.endswith("zarr.json")}
     folder = Path(path) / name

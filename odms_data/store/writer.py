@@ -22,7 +22,7 @@ from .. import safe_json
 from ..errors import InputError, OdmsError, StoreError, StoreExistsError, StoreLockedError
 from ..interrupts import uninterrupted
 from ..outputs import DISK_FULL, Kind, Partial, check_replaceable, output_lock, refuse_existing, write_error
-from .backends import HDF5_MAGIC, Backend, detect_format, is_url, open_backend
+from .backends import HDF5_MAGIC, Backend, detect_format, is_url, open_backend, url_filesystem
 from .format import (
     ARRAYS,
     ATTRS_KEY,
@@ -265,9 +265,7 @@ def _inside(filename: object, folder: str) -> bool:
 def _check_new_url_store(url: str, overwrite: bool) -> None:
     """`outputs.check_replaceable` for a URL: what is there is read with fsspec."""
     try:
-        from fsspec.core import url_to_fs
-
-        fs, root = url_to_fs(url)
+        fs, root = url_filesystem(url)
     except ImportError as e:
         raise InputError(f"{url}: writing to a URL needs fsspec and the package of its protocol "
                          f"({e}); see docs/DISTRIBUTED.md") from None

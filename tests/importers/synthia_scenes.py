@@ -43,13 +43,20 @@ class Thing:
 @dataclass
 class Scene:
     """A camera at `height` m driving `steps[k]` m along its heading from frame k to k + 1 and
-    turning `yaw_rate` rad per frame (to the left), past `things`."""
+    turning `yaw_rate` rad per frame (to the left; `turns[k]` rad from frame k to k + 1 where
+    given) from the heading `start_yaw` rad left of -z, past `things`."""
 
     name: str
     steps: list[float]
     things: list[Thing] = field(default_factory=list)
     yaw_rate: float = 0.004
     height: float = 1.5
+    turns: list[float] | None = None
+    start_yaw: float = 0.0
+
+    def yaw(self, k: int) -> float:
+        """The heading of frame k, rad to the left of the world's -z."""
+        return self.start_yaw + (sum(self.turns[:k]) if self.turns is not None else self.yaw_rate * k)
 
     @property
     def n_frames(self) -> int:
@@ -60,8 +67,8 @@ class Scene:
         -z), centre."""
         centre = np.array([0.0, self.height, 0.0])
         for j in range(k):
-            centre += self.steps[j] * heading(self.yaw_rate * j)
-        t = self.yaw_rate * k
+            centre += self.steps[j] * heading(self.yaw(j))
+        t = self.yaw(k)
         M = np.eye(4)
         M[:3, 0] = (np.cos(t), 0.0, -np.sin(t))
         M[:3, 2] = -heading(t)

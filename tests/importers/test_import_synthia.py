@@ -20,10 +20,13 @@ from odms_data.cli import main
 from odms_data.cli.fixes import with_fix
 from odms_data.errors import InputError
 from odms_data.evaluation.vosde import vosde
+from odms_data.importers import synthia
 from odms_data.importers.decoding import Workers
 from odms_data.importers.synthia import (
+    MAX_ANGLE_SPREAD,
     Sighting,
     Track,
+    angle_spread,
     import_synthia,
     plan_store,
     read_pose,
@@ -398,3 +401,99 @@ def test_the_gap_rule_bounds_a_windows_empty_masks_in_all():
     kept = select_windows(track, poses, Selection(move=(0.1, 100)))
     assert sorted(kept) == [15, 16, 17, 18, 19]  # 5, 4, 3, 3, 3 empty masks
     # left out: closest frames 14, 13 and 9, whose windows have 6 empty masks each
+
+
+# --- the pose direction: a camera fixed to a car keeps its angle to its movement ---------------
+def rot_y(t: float) -> np.ndarray:
+    return np.array([[np.cos(t), 0, np.sin(t)], [0, 1, 0], [-np.sin(t), 0, np.cos(t)]])
+
+
+def driven(steps, turns, *, ahead=0.0, mount=0.0, mirrored=False, jitter=0.0) -> list[np.ndarray]:
+    """Camera-to-world matrices, one per frame, of a camera `ahead` m in front of a car's rear axle
+    looking `mount` rad left of the car's heading (x axis mirrored, determinant -1, if `mirrored`),
+    the axle driving steps[k] m from frame k to k + 1 along an arc that turns turns[k] rad (to the
+    left), far from the world's origin; each centre off by `jitter` m at random."""
+    rng = np.random.default_rng(0)
+    axle, yaw, out = np.array([120.0, 1.5, -80.0]), 0.3, []
+    for k in range(len(steps) + 1):
+        for _ in range(20 if k else 0):  # the arc, in small pieces
+            yaw += turns[k - 1] / 20
+            axle = axle + steps[k - 1] / 20 * scenes.heading(yaw)
+        M = np.eye(4)
+        M[:3, :3] = rot_y(yaw + mount) @ np.diag([-1.0 if mirrored else 1.0, 1, 1])
+        M[:3, 3] = axle + ahead * scenes.heading(yaw) + jitter * rng.standard_normal(3)
+        out.append(M)
+    return out
+
+
+def spreads(tmp_path: Path, matrices: list[np.ndarray]) -> dict[str, float]:
+    """angle_spread of the poses read from the files of `matrices` in each direction."""
+    out = {}
+    for direction in ("camera-to-world", "world-to-camera"):
+        conv = dataclasses.replace(SYNTHIA_POSES, direction=direction)
+        out[direction] = angle_spread({k: read_pose(_pose_file(tmp_path / f"{k:06d}.txt", M), conv)
+                                       for k, M in enumerate(matrices)})
+    return out
+
+
+QUARTER = [math.pi / 20] * 10  # a junction: 90 degrees over 10 frames (9 degrees, 1.5 m each)
+JUNCTION = ([2.0] * 10 + [1.5] * 10 + [2.0] * 10, [0.0] * 10 + QUARTER + [0.0] * 10)
+TIGHT = 4.5  # m, a car's tightest turn (at the rear axle), driven at 1 m per frame (18 km/h at 5 fps)
+LEFT_AND_RIGHT = ([2.0] * 5 + [1.0] * 14 + [2.0] * 5 + [1.0] * 14 + [2.0] * 5,
+                  [0.0] * 5 + [1 / TIGHT] * 14 + [0.0] * 5 + [-1 / TIGHT] * 14 + [0.0] * 5)
+STOP_AND_GO = ([2.0] * 8 + [0.0] * 10 + [1.5] * 10 + [0.0] * 6 + [2.0] * 8,
+               [0.0] * 18 + QUARTER + [0.0] * 14)
+BACKING_UP = ([2.0] * 8 + [0.3, 0.0, -0.4, -0.8, -0.8, -0.4, 0.0, 0.5] + [2.0] * 8,  # into a parking bay
+              [0.0] * 10 + [0.1, 0.15, 0.15, 0.1] + [0.0] * 10)
+
+
+@pytest.mark.parametrize("mirrored", [False, True], ids=["proper", "improper"])
+def test_the_pose_direction_shows_in_the_angle_of_the_movement(tmp_path, mirrored):
+    """Right (camera-to-world), the angle between a camera's movement and its axis holds along a
+    turning drive; wrong, it follows the heading and swings past MAX_ANGLE_SPREAD. The same with
+    SYNTHIA's probably improper matrices (determinant -1)."""
+    junction = spreads(tmp_path, driven(*JUNCTION, mirrored=mirrored))
+    assert junction["camera-to-world"] < 1 and junction["world-to-camera"] > MAX_ANGLE_SPREAD
+    for ahead, mount, most in ((3.0, math.pi / 2, 70), (3.0, 0.0, 35), (0.0, math.pi, 1)):
+        worst = spreads(tmp_path, driven(*LEFT_AND_RIGHT, ahead=ahead, mount=mount, mirrored=mirrored))
+        assert most - 5 < worst["camera-to-world"] < most < MAX_ANGLE_SPREAD, (ahead, mount, worst)
+        assert worst["world-to-camera"] > MAX_ANGLE_SPREAD, (ahead, mount, worst)
+
+
+def test_halts_and_backing_up_are_not_taken_for_a_wrong_direction(tmp_path, monkeypatch):
+    """Stops (the centre still but for 1 mm of noise) give the movement no direction: they are left
+    out, and a stop-and-go drive reads as it is; counting them would refuse it. A car that halts
+    and backs up moves against its axis: that reversal is undone, not refused."""
+    stop_and_go = driven(*STOP_AND_GO, jitter=0.001)
+    got = spreads(tmp_path, stop_and_go)
+    assert got["camera-to-world"] < 1 and got["world-to-camera"] > MAX_ANGLE_SPREAD
+    assert spreads(tmp_path, driven(*BACKING_UP))["camera-to-world"] < 1
+    monkeypatch.setattr(synthia, "NEAR_HALT", 0.0)  # no reversal recognised
+    assert spreads(tmp_path, driven(*BACKING_UP))["camera-to-world"] > MAX_ANGLE_SPREAD
+    monkeypatch.setattr(synthia, "MIN_MOVE", 0.0)
+    assert spreads(tmp_path, stop_and_go)["camera-to-world"] > MAX_ANGLE_SPREAD
+
+
+@pytest.fixture(scope="module")
+def junction(tmp_path_factory) -> Path:
+    """A camera turning left at a junction (90 degrees over 10 frames) towards a car parked on the
+    road it turns into, rendered in SYNTHIA's layout. Its headings, 70 to 160 degrees left of the
+    world's -z, make the wrong direction's z grow too on the road it turns into (its movement 20
+    degrees off its axis there): the windows pass the selection rules either way."""
+    steps, turns = [2.0] * 3 + [1.5] * 10 + [2.0] * 3, [0.0] * 3 + QUARTER + [0.0] * 3
+    scene = scenes.Scene("SYNTHIA-SEQS-04-SPRING", steps, turns=turns, start_yaw=math.radians(70))
+    end = scene.pose(len(steps))[:3, 3] + 22 * scenes.heading(scene.yaw(len(steps)))
+    scene.things.append(scenes.Thing(3, scenes.CAR, "box", (end[0], 0.75, end[2]), (0.9, 0.75, 0.9)))
+    return scenes.write_sequence(tmp_path_factory.mktemp("junction"), scene)
+
+
+def test_a_wrong_pose_direction_is_refused_where_the_camera_turns(junction, tmp_path):
+    r = run_cli(junction, "-o", tmp_path / "right.zarr", *SHORT)
+    assert r.exit_code == 0 and "examples: " in r.stdout, r.output
+    error = error_line(run_cli(junction, "-o", tmp_path / "wrong.zarr", *SHORT, "--pose", "world-to-camera"))
+    assert re.fullmatch(r"odms-data: error: SYNTHIA-SEQS-04-SPRING: the angle between the camera's "
+                        r"movement and its optical axis varies by (\d+) degrees along the sequence, more "
+                        r"than the 80 a camera fixed to a car can: its poses are probably not "
+                        r"world-to-camera matrices; --pose is probably wrong: SYNTHIA's matrices map the "
+                        r"camera to the world, so say --pose camera-to-world \(the default\)", error), error
+    assert not list(tmp_path.glob("wrong.zarr*"))
