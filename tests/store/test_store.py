@@ -56,8 +56,8 @@ def test_statistics_of_packed_masks_equal_those_of_the_masks():
             packed[5, 0, -1] |= 1  # and of one with pixels, above them
         stats = packed_stats(packed, width)
         for i, m in enumerate(masks):
-            area, largest, box = mask_stats(m)
-            assert (stats.area[i], stats.largest_area[i], tuple(stats.bbox[i])) == (area, largest, box), (width, i)
+            got = (stats.area[i], stats.largest_area[i], tuple(stats.bbox[i]))
+            assert got == mask_stats(m), (width, i)
 
 
 def test_frame_digests_from_their_drawn_rows_equal_the_whole_frames():
