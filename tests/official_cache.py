@@ -71,11 +71,21 @@ def cache_key(archive: Path) -> str:
 
 
 def _listing(entry: Path) -> dict[str, list]:
-    """Every file's size; a store file's sha256 too (the PNGs are many, and their sizes suffice)."""
+    """Every file's size; a store file's sha256 too (the PNGs are many, and their sizes suffice).
+    Walked with os.scandir: pathlib's per-path objects cost seconds over the release's files."""
     files: dict[str, list] = {}
-    for path in sorted(p for p in entry.rglob("*") if p.is_file() and p.name != LISTING):
-        rel = path.relative_to(entry).as_posix()
-        files[rel] = [path.stat().st_size, sha256(path) if rel.startswith("stores/") else None]
+
+    def walk(folder: str, rel: str) -> None:
+        with os.scandir(folder) as entries:
+            for e in entries:
+                name = f"{rel}{e.name}"
+                if e.is_dir(follow_symlinks=False):  # as rglob: links to folders not followed
+                    walk(e.path, f"{name}/")
+                elif e.is_file() and name != LISTING:
+                    digest = sha256(Path(e.path)) if name.startswith("stores/") else None
+                    files[name] = [e.stat().st_size, digest]
+
+    walk(str(entry), "")
     return files
 
 

@@ -28,8 +28,9 @@ from .. import safe_json
 from ..errors import InputError, OdmsError
 from ..extras import optional
 from ..outputs import Kind, atomic_folder
-from ..store.digest import check_recorded_digest
+from ..store.digest import READ_BYTES, check_recorded_digest
 from ..store.format import ARRAYS
+from ..store.masks import packed_width
 from ..store.reader import Store, open_store
 from .hub_metadata import SplitExport, columns_of, croissant, dataset_card, hub_split, licence_of
 
@@ -38,13 +39,19 @@ Progress = Callable[[str, int, int], None]  # (output, examples written, example
 
 
 def _example_rows(store: Store, rows: range) -> dict[str, list]:
-    """The columns (hub_metadata.columns_of) of examples `rows` of `store`, their masks read in one slice."""
+    """The columns (hub_metadata.columns_of) of examples `rows` of `store`, their masks read a
+    block of about READ_BYTES at a time."""
     columns = columns_of(store.kind)
     frames = [store.frames_of(i) for i in rows]
     flat = np.concatenate([np.zeros(0, np.int64), *frames])
     lo = int(flat.min()) if len(flat) else 0
     masks = any(ARRAYS[c].sharded for c in columns if c in ARRAYS)
-    packed = store.read_packed(lo, int(flat.max()) + 1) if len(flat) and masks else None
+    packed: dict[int, bytes] = {}  # frame -> its packed bytes, read READ_BYTES at a time
+    if len(flat) and masks:
+        hi, step = int(flat.max()) + 1, max(1, READ_BYTES // (store.height * packed_width(store.width)))
+        for start in range(lo, hi, step):
+            block = store.read_packed(start, min(hi, start + step))
+            packed.update((start + j, m.tobytes()) for j, m in enumerate(block))
     out: dict[str, list] = {
         "split": [store.attrs.split] * len(rows),
         "n": [len(f) for f in frames],
@@ -56,7 +63,7 @@ def _example_rows(store: Store, rows: range) -> dict[str, list]:
         if a is None:
             continue
         if a.sharded:
-            out[c] = [[packed[k - lo].tobytes() for k in f] if packed is not None else [] for f in frames]
+            out[c] = [[packed[k] for k in f] for f in frames]
         elif a.per == "frame":
             values = store.checked(c)
             out[c] = [values[f].tolist() for f in frames]
@@ -99,8 +106,10 @@ def _write_split(store: Store, folder: Path, examples_per_file: int,
     for k in range(count):
         rows = range(k * examples_per_file, min(n, (k + 1) * examples_per_file))
         name = f"data/{split}/{split}-{k:05d}-of-{count:05d}.parquet"
-        table = pa.Table.from_pydict(_example_rows(store, rows), schema=_schema(store.kind))
-        pq.write_table(table, folder / name, compression="zstd", row_group_size=ROW_GROUP)
+        with pq.ParquetWriter(folder / name, _schema(store.kind), compression="zstd") as writer:
+            for group in range(rows.start, rows.stop, ROW_GROUP):  # a group's masks in memory at a time
+                part = range(group, min(rows.stop, group + ROW_GROUP))
+                writer.write_table(pa.Table.from_pydict(_example_rows(store, part), schema=writer.schema))
         files.append(name)
         size += (folder / name).stat().st_size
         progress(len(rows))

@@ -41,6 +41,6 @@ def convert(
                 if progress:
                     progress(str(dst), start + len(block), s.n_frames)
 
-            digest = check_recorded_digest(s, src, copy)
+            digest = check_recorded_digest(s, src, copy, BLOCK_FRAMES)
             w.commit(s.attrs)
         return digest

@@ -16,10 +16,14 @@ import numpy as np
 
 from ..errors import StoreError
 from .format import decode_strings
+from .masks import packed_width
 
 DIGEST_PREFIX = b"odms-store-content/1"
 BOX_PREFIX = b"odms-box-frame/2"  # what a frame of boxes hashes first: never a mask's bytes
-BLOCK_FRAMES = 1024  # frames read at a time when streaming a store
+BLOCK_FRAMES = 1024  # frames convert reads at a time: a shard of the store it writes
+# Packed mask bytes read at a time otherwise: a block above glibc's largest mmap threshold (32 MiB)
+# is mapped afresh on every read, and its page faults cost more than digesting it.
+READ_BYTES = 16 << 20
 
 if TYPE_CHECKING:
     from .reader import Store
@@ -120,14 +124,15 @@ def content_digest(
 
 
 def recompute_digest(
-    store: Store, visit: Callable[[int, np.ndarray], None] | None = None
+    store: Store, visit: Callable[[int, np.ndarray], None] | None = None, block_frames: int | None = None
 ) -> tuple[str, np.ndarray]:
     """Stream all masks once; returns the content digest and the (F, 32) frame digests of the
     content as stored (unchecked: `validate` digests broken stores too; the frame index must hold
     frame rows and the strings must be UTF-8).
 
-    `visit(start, packed_block)` sees every block of packed masks as it is read (a store of
-    boxes has none: its frames are digested from `box_frame_digests`).
+    `visit(start, packed_block)` sees every block of packed masks as it is read, `block_frames`
+    frames at a time (READ_BYTES when None); a store of boxes has none: its frames are digested
+    from `box_frame_digests`.
     """
     depth, d1, fi = (store.raw(name) for name in ("depth", "d1", "frame_index"))
     ids, sources = decode_strings(store.raw("example_id")), decode_strings(store.raw("source"))
@@ -136,8 +141,9 @@ def recompute_digest(
         return content_digest(store.height, store.width, fi, fd, ids, sources, d1), fd
     z = store.raw("z")
     fd = np.empty((store.n_frames, 32), np.uint8)
-    for start in range(0, store.n_frames, BLOCK_FRAMES):
-        block = store.read_packed(start, min(start + BLOCK_FRAMES, store.n_frames))
+    step = block_frames or max(1, READ_BYTES // (store.height * packed_width(store.width)))
+    for start in range(0, store.n_frames, step):
+        block = store.read_packed(start, min(start + step, store.n_frames))
         stop = start + len(block)
         fd[start:stop] = frame_digests(block, z[start:stop], depth[start:stop])
         if visit:
@@ -146,12 +152,13 @@ def recompute_digest(
 
 
 def check_recorded_digest(
-    store: Store, path: str, visit: Callable[[int, np.ndarray], None] | None = None
+    store: Store, path: str, visit: Callable[[int, np.ndarray], None] | None = None,
+    block_frames: int | None = None,
 ) -> str:
     """`recompute_digest` that refuses a store (at `path`, for the message) whose content differs
     from the digest it records, or that breaks the format's read rules; returns the digest."""
     _ = store.frame_index, store.example_ids, store.sources  # read first: the format's rules checked
-    digest, _ = recompute_digest(store, visit)
+    digest, _ = recompute_digest(store, visit, block_frames)
     if digest != store.attrs.digest:
         raise StoreError(
             f"{path}: content digest {digest} differs from the recorded {store.attrs.digest}; "

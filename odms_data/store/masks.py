@@ -74,3 +74,23 @@ def mask_stats(mask: np.ndarray) -> tuple[int, int, tuple]:
         return 0, 0, (0, 0, 0, 0)
     x, y, w, h = cv2.boundingRect(m)
     return area, largest_region(m[y : y + h, x : x + w], area), (x, y, x + w, y + h)
+
+
+def packed_stats(packed: np.ndarray, width: int) -> FrameStats:
+    """`mask_stats` of each of k packed masks (k, H, ceil(width/8)), unpacking only the rows and
+    bytes that hold set bits: `unpack` of a whole block of large masks costs more than the rest
+    of validating them. Bits past `width` (the padding) are not pixels, as in `unpack`."""
+    stats = FrameStats.empty(len(packed))
+    rows, cols = np.any(packed, axis=2), np.any(packed, axis=1)
+    for i in range(len(packed)):
+        ys, bs = np.flatnonzero(rows[i]), np.flatnonzero(cols[i])
+        if len(ys) == 0:
+            continue
+        y0, b0 = int(ys[0]), int(bs[0])
+        crop = packed[i, y0 : int(ys[-1]) + 1, b0 : int(bs[-1]) + 1]
+        bits = min(crop.shape[1] * 8, width - 8 * b0)
+        area, largest, (x0, y, x1, y1) = mask_stats(unpack(crop, bits))
+        if area:
+            stats.area[i], stats.largest_area[i] = area, largest
+            stats.bbox[i] = (x0 + 8 * b0, y + y0, x1 + 8 * b0, y1 + y0)
+    return stats

@@ -27,7 +27,7 @@ from .format import (
     z_problems,
 )
 from .manifests import SplitManifest, load_manifest, split_names
-from .masks import mask_stats, packed_width, unpack
+from .masks import packed_stats, packed_width
 from .reader import Store, open_store
 
 
@@ -162,12 +162,10 @@ def _check_masks(store: Store, report: Report, progress: Callable[[str, int, int
     def visit(start: int, block: np.ndarray) -> None:
         if pad_mask is not None and np.any(block[:, :, -1] & pad_mask):
             report.problems.append(f"masks of frames {start}..: padding bits are not zero")
-        masks = unpack(block, W)
-        for j, m in enumerate(masks):
-            f = start + j
-            a, la, box = mask_stats(m)
-            if a != area[f] or la != largest[f] or tuple(bbox[f]) != box:
-                wrong_stats.append(f)
+        stats, stop = packed_stats(block, W), start + len(block)
+        wrong = (stats.area != area[start:stop]) | (stats.largest_area != largest[start:stop]) \
+            | np.any(stats.bbox != bbox[start:stop], axis=1)
+        wrong_stats.extend((start + np.flatnonzero(wrong)).tolist())
         if progress:
             progress(report.path, start + len(block), store.n_frames)
 

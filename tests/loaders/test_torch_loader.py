@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+import multiprocessing
 import subprocess
 import sys
 from pathlib import Path
@@ -12,6 +14,7 @@ import torch
 from loader_stores import COUNT, make_store
 from torch.utils.data import DataLoader
 
+from odms_data import parallel
 from odms_data.errors import InputError
 from odms_data.loaders import Transform
 from odms_data.loaders.torch_loader import StoreDataset, StreamDataset
@@ -20,9 +23,21 @@ from odms_data.store.reader import open_store
 
 
 def two_workers(dataset, **kwargs) -> DataLoader:
-    """Spawned, not forked: forking a pytest process that has started JAX or TensorFlow threads can
-    deadlock. Store handles inherited across fork are covered in test_numpy_loader."""
-    return DataLoader(dataset, num_workers=2, multiprocessing_context="spawn", **kwargs)
+    """Workers forked from the fork server, not from pytest: forking a pytest process that has
+    started JAX or TensorFlow threads can deadlock. The dataset reaches them pickled, as it reaches
+    spawned workers; unlike spawned ones, they do not each import torch (seconds) when the server
+    has (`_fork_server`). Store handles inherited across fork are covered in test_numpy_loader."""
+    return DataLoader(dataset, num_workers=2, multiprocessing_context=_fork_server(), **kwargs)
+
+
+@functools.cache
+def _fork_server() -> multiprocessing.context.BaseContext:
+    """The process's fork server, started as odms_data.parallel starts it, but with torch's loader
+    loaded too, unless an earlier test started it (then each worker imports torch itself)."""
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload([parallel.WARM_START, "odms_data.loaders.torch_loader"])
+    parallel._start_fork_server()
+    return context
 
 
 @pytest.fixture(scope="module", params=["zarr", "hdf5"])
@@ -56,8 +71,9 @@ def test_store_dataset_shuffle_reproducible(store_path):
         g = torch.Generator().manual_seed(seed)
         return _indices(two_workers(ds, batch_size=6, shuffle=True, generator=g))
 
-    assert order(1) == order(1) != order(2)
-    assert sorted(order(1)) == list(range(COUNT))
+    first = order(1)
+    assert first == order(1) != order(2)
+    assert sorted(first) == list(range(COUNT))
 
 
 def test_stream_dataset_workers_and_epochs():

@@ -17,7 +17,7 @@ from odms_data.simulate.params import GENERATOR_VERSION, PRESETS
 from odms_data.simulate.render import reference_masks
 from odms_data.store.convert import convert
 from odms_data.store.digest import frame_digests, frame_tails, padded_frame_digests
-from odms_data.store.masks import pack, unpack
+from odms_data.store.masks import mask_stats, pack, packed_stats, unpack
 from odms_data.store.reader import open_store
 from odms_data.store.validate import validate
 from odms_data.store.writer import StoreWriter
@@ -37,6 +37,27 @@ def test_pack_unpack_round_trip_for_odd_widths():
     for width in (8, 13, 640):
         m = rng.random((3, 7, width)) < 0.5
         np.testing.assert_array_equal(unpack(pack(m), width), m)
+
+
+def test_statistics_of_packed_masks_equal_those_of_the_masks():
+    """Empty masks, one pixel at each corner, regions touching the edges, several regions, odd
+    widths; set padding bits are not pixels."""
+    rng = np.random.default_rng(1)
+    for width in (8, 13, 21, 640):
+        masks = np.zeros((9, 11, width), bool)
+        masks[1, 0, 0] = masks[2, -1, -1] = masks[3, 0, -1] = masks[4, -1, 0] = True
+        masks[5, 2:9, width // 3 :] = True
+        masks[6] = rng.random((11, width)) < 0.3
+        masks[7, 1:3, 1:3] = masks[7, 6:10, width - 4 :] = True
+        masks[8] = rng.random((11, width)) < 0.02
+        packed = pack(masks)
+        if width % 8:
+            packed[0, 5, -1] |= 1  # a padding bit of an empty mask
+            packed[5, 0, -1] |= 1  # and of one with pixels, above them
+        stats = packed_stats(packed, width)
+        for i, m in enumerate(masks):
+            got = (stats.area[i], stats.largest_area[i], tuple(stats.bbox[i]))
+            assert got == mask_stats(m), (width, i)
 
 
 def test_frame_digests_from_their_drawn_rows_equal_the_whole_frames():
