@@ -15,6 +15,15 @@ given `odms-data` executable in its own process, capped with RLIMIT_AS, and is j
 own helpers: one `odms-data: error:` line naming the culprit, exit 2, nothing outside the output
 touched. The fixtures are made by this checkout (the store format did not change in between).
 
+Memory: a cap alone cannot tell a bound from an allocation that failed under it (the old code
+reported a refused 4 GiB allocation as one line, "unreadable ()"). So every command runs under
+strace, counting the mmap/mremap calls that fail, and under GNU time, taking its peak resident
+memory; a case is kept only if no allocation was refused and the peak stayed under RSS_BOUND
+(what a decode past the bound would touch). The caps leave a valid input room (the controls, run
+first on each side, show that valid inputs get no allocation refused and stay under the bound).
+Commands stopped by a signal run untraced (strace holds fatal signals back). Needs strace and
+/usr/bin/time.
+
 A case whose options the executable's `--help` does not list, or that cannot be run through the
 command line, is "not applicable" and listed. Written to benchmarks/results/untrusted_before_after.json.
 """
@@ -25,11 +34,13 @@ import argparse
 import os
 import re
 import resource
+import shlex
 import shutil
 import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections import Counter
 from collections.abc import Callable
@@ -47,10 +58,17 @@ import test_untrusted_reads as R  # noqa: E402, N812
 import test_untrusted_writes as W  # noqa: E402, N812
 from broken_stores import HOSTILE, broken_stores, make_valid  # noqa: E402
 
-GIB = 2**30
+GIB, MIB = 2**30, 2**20
 THREADS = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}  # buffers made lazily, as the tests
-STORE_AS = 2 * GIB  # a store reader: the bombs decode to 4 GiB, a bounded read needs megabytes
-TORCH_AS = 4 * GIB  # predict and train import torch (the tests: what the imports hold + 2 GiB)
+# Address-space caps: a valid run's peak address space (up to 1.9 GiB for baseline and export, 1.8
+# for an import, 2.8 for predict) plus room; the bombs decode to 4 GiB, the declared shapes to more.
+STORE_AS = 3 * GIB
+IMPORT_AS = 5 * GIB // 2
+TORCH_AS = 4 * GIB
+# Peak resident memory allowed under each cap: a valid run needs under half of it; a 30000x30000
+# mask decodes to 858 MiB, a bomb to 4 GiB.
+RSS_BOUND = {STORE_AS: 768 * MIB, IMPORT_AS: 768 * MIB, TORCH_AS: 1536 * MIB}
+TRACE = ["strace", "-f", "-qq", "-c", "--seccomp-bpf", "-e", "trace=mmap,mremap", "-o"]
 
 
 @dataclass
@@ -58,6 +76,34 @@ class Ran:
     returncode: int
     stdout: str
     stderr: str
+    refused_allocations: int = 0  # mmap/mremap calls that failed (the cap refused them)
+    peak_rss: int = 0  # bytes
+
+
+MEMORY = threading.local()  # .broken: the memory promises broken in the case this thread runs
+
+
+def refused_allocations(summary: Path) -> int:
+    """The failed mmap/mremap calls in strace's -c summary (its errors column)."""
+    if not summary.is_file():
+        return 0
+    fields = [line.split() for line in summary.read_text().splitlines()]
+    return sum(int(f[4]) for f in fields if len(f) == 6 and f[5] in ("mmap", "mremap"))
+
+
+def peak_rss(report: Path) -> int:
+    """GNU time's %M (KiB) of the traced command, in bytes."""
+    lines = report.read_text().split() if report.is_file() else []
+    return int(lines[-1]) * 1024 if lines and lines[-1].isdigit() else 0
+
+
+def memory_broken(r: Ran, cap: int, bound: int | None) -> list[str]:
+    """The memory promise: no allocation refused by the cap, peak resident memory under `bound`."""
+    n = r.refused_allocations
+    broken = [f"the {cap / GIB:g} GiB cap refused {n} allocation(s) (not bounded by the code)"] if n else []
+    if bound is not None and r.peak_rss > bound:
+        broken.append(f"peak resident memory {r.peak_rss / MIB:.0f} MiB, over {bound / MIB:.0f} MiB")
+    return broken
 
 
 @dataclass
@@ -66,29 +112,37 @@ class Case:
     name: str
     run: Callable[[str, Path], list[str]]  # (executable, a fresh folder) -> the broken promises
     options: tuple[list[str], ...] = ()  # the command lines, for the not-applicable check
+    traced: bool = True  # the catalogue's processes run traced (a case stopped by a signal: not)
 
 
 def odms(exe: str, args: list[str], cwd: Path, limit: int = STORE_AS, env: dict[str, str] | None = None,
          stop_when: Path | None = None) -> Ran:
-    """`exe args` in cwd under RLIMIT_AS `limit`; SIGTERM once `stop_when` exists."""
+    """`exe args` in cwd under RLIMIT_AS `limit`, traced (module docstring), its memory promise noted
+    for the case this thread runs; SIGTERM once `stop_when` exists (untraced)."""
     def capped() -> None:
         resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
 
-    p = subprocess.Popen([exe, *args], cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                         errors="replace", preexec_fn=capped,
-                         env={**os.environ, **THREADS, **(env or {})})
-    if stop_when is not None:
-        deadline = time.monotonic() + 120
-        while not stop_when.exists() and p.poll() is None and time.monotonic() < deadline:
-            time.sleep(0.05)
-        p.send_signal(signal.SIGTERM)
-    try:
-        out, err = p.communicate(timeout=600)
-    except subprocess.TimeoutExpired:
-        p.kill()
-        out, err = p.communicate()
-        err += "\n(killed after 600 s)"
-    return Ran(p.returncode, out, err)
+    with tempfile.TemporaryDirectory() as logs:
+        summary, report = Path(logs) / "strace", Path(logs) / "time"
+        traced = ["/usr/bin/time", "-q", "-f", "%M", "-o", str(report), *TRACE, str(summary)]
+        p = subprocess.Popen([*(traced if stop_when is None else []), exe, *args], cwd=cwd,
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, errors="replace",
+                             preexec_fn=capped, process_group=0, env={**os.environ, **THREADS, **(env or {})})
+        if stop_when is not None:
+            deadline = time.monotonic() + 120
+            while not stop_when.exists() and p.poll() is None and time.monotonic() < deadline:
+                time.sleep(0.05)
+            p.send_signal(signal.SIGTERM)
+        try:
+            out, err = p.communicate(timeout=600)
+        except subprocess.TimeoutExpired:
+            os.killpg(p.pid, signal.SIGKILL)
+            out, err = p.communicate()
+            err += "\n(killed after 600 s)"
+        r = Ran(p.returncode, out, err, refused_allocations(summary), peak_rss(report))
+    if getattr(MEMORY, "broken", None) is not None:
+        MEMORY.broken += memory_broken(r, limit, RSS_BOUND.get(limit))
+    return r
 
 
 def held(check: Callable[[], object], what: str) -> list[str]:
@@ -357,27 +411,29 @@ def hostile_stores(exe: str) -> tuple[Path, dict[str, Path]]:
 
 
 def _deep_json(exe: str, cwd: Path, which: str) -> list[str]:
-    """test_json_everywhere_is_depth_bounded, one invocation a case."""
+    """test_json_everywhere_is_depth_bounded, one invocation a case, judged by what its lines say."""
     deep = "[" * 100_000 + "]" * 100_000
     (cwd / "board").mkdir()
     (cwd / "board" / "e.json").write_text(deep)
     (cwd / "run").mkdir()
     (cwd / "run" / "config.json").write_text(deep)
+    deeper = "nested deeper than 64"
     args, names, limit = {"--param": (["generate", "-n", "2", "--param", f"d_max={deep}", "-o", "g.zarr"],
-                                      "--param", STORE_AS),
-                          "leaderboard": (["leaderboard", "--dir", "board"], "e.json", STORE_AS),
+                                      ("--param", deeper), STORE_AS),
+                          "leaderboard": (["leaderboard", "--dir", "board"], ("e.json", deeper), STORE_AS),
                           "run config": (["predict", "run", "--data", ".", "-o", "p.csv", "--device", "cpu"],
-                                         "run", TORCH_AS)}[which]
+                                         ("not a training run",), TORCH_AS)}[which]
     if which == "--param":  # one argument of a command line holds at most 128 KiB (MAX_ARG_STRLEN)
         args[4] = "d_max=" + "[" * 60_000 + "]" * 60_000
     r = odms(exe, args, cwd, limit)
-    return refused(r, names) + (["left g.zarr"] if (cwd / "g.zarr").exists() else [])
+    return refused(r, *names) + (["left g.zarr"] if (cwd / "g.zarr").exists() else [])
 
 
-RUNS = {  # test_a_run_folder_is_checked_before_anything_is_built: run -> (config change, best.pt)
-    "huge": ({"n_obs": 1_000_000}, None),
-    "list": ({}, [1, 2, 3]),
-    "no-model": ({}, "no-model"),
+RUNS = {  # test_a_run_folder_is_checked_before_anything_is_built: run -> (config change, best.pt,
+    # what the test's error line says)
+    "huge": ({"n_obs": 1_000_000}, None, "n_obs must be at most 100"),
+    "list": ({}, [1, 2, 3], "holds a list, not a dict"),
+    "no-model": ({}, "no-model", "'model' is list, not dict"),
 }
 
 
@@ -396,7 +452,7 @@ def _run_folder(exe: str, cwd: Path, name: str) -> list[str]:
                    cwd / name / "best.pt")
     r = odms(exe, ["predict", name, "--data", "v.zarr", "-o", f"{name}.csv", "--device", "cpu"], cwd,
              TORCH_AS)
-    return refused(r, name) + ([f"left {name}.csv"] if (cwd / f"{name}.csv").exists() else [])
+    return refused(r, RUNS[name][2]) + ([f"left {name}.csv"] if (cwd / f"{name}.csv").exists() else [])
 
 
 def _predict_missing(exe: str, cwd: Path, workers: int) -> list[str]:
@@ -459,7 +515,7 @@ def _recording_case(case: str) -> Callable[[str, Path], list[str]]:
         spoil(rec, HUGE_PNG)
         before = I.snapshot(cwd)
         r = odms(exe, ["import", "recording", str(rec / "masks"), "--positions", str(rec / "positions.csv"),
-                       "-o", "out.zarr", "--workers", "1", *args], cwd, I.AS_LIMIT)
+                       "-o", "out.zarr", "--workers", "1", *args], cwd, IMPORT_AS)
         broken = refused(r, *_culprit(says))
         return broken + ([] if I.snapshot(cwd) == before else ["the folder changed"])
     return run
@@ -471,7 +527,7 @@ def _release_case(case: str) -> Callable[[str, Path], list[str]]:
         spoil(I.release(cwd))
         before = I.snapshot(cwd)
         r = odms(exe, ["import", "odms", str(cwd / "data"), "-o", "stores", "--split", "normal-val",
-                       "--workers", "1"], cwd, I.AS_LIMIT)
+                       "--workers", "1"], cwd, IMPORT_AS)
         return refused(r, *_culprit(says)) + ([] if I.snapshot(cwd) == before else ["the folder changed"])
     return run
 
@@ -493,7 +549,7 @@ def _synthia_label(exe: str, cwd: Path) -> list[str]:
         (seq / "CameraParams/Stereo_Left/Omni_F" / f"{name}.txt").write_text(
             " ".join(map(str, np.eye(4).flatten())) + "\n")
     before = I.snapshot(cwd)
-    r = odms(exe, ["import", "synthia", str(seq), "-o", "s.zarr", "--workers", "1"], cwd, I.AS_LIMIT)
+    r = odms(exe, ["import", "synthia", str(seq), "-o", "s.zarr", "--workers", "1"], cwd, IMPORT_AS)
     return refused(r, "000000.png") + ([] if I.snapshot(cwd) == before else ["the folder changed"])
 
 
@@ -502,23 +558,23 @@ def _escapes(exe: str, cwd: Path) -> list[str]:
     evil = cwd / "rec" / "cup\x1b]0;owned\x07\x1b[2J"
     (rec / "masks").rename(evil)
     r = odms(exe, ["import", "recording", str(evil), "--positions", str(rec / "positions.csv"),
-                   "-o", "cup.zarr", "--workers", "1"], cwd, I.AS_LIMIT)
+                   "-o", "cup.zarr", "--workers", "1"], cwd, IMPORT_AS)
     if r.returncode:
         return [f"import exit {r.returncode}"]
-    info = odms(exe, ["info", "cup.zarr"], cwd, I.AS_LIMIT)
+    info = odms(exe, ["info", "cup.zarr"], cwd, IMPORT_AS)
     inert = info.returncode == 0 and "\x1b" not in info.stdout and "\x07" not in info.stdout
     return [] if inert else [f"info exit {info.returncode}, escapes shown raw"]
 
 
 def _latin1(exe: str, cwd: Path) -> list[str]:
-    r = odms(exe, ["leaderboard"], cwd, I.AS_LIMIT, env={"PYTHONIOENCODING": "latin-1"})
+    r = odms(exe, ["leaderboard"], cwd, IMPORT_AS, env={"PYTHONIOENCODING": "latin-1"})
     return [] if r.returncode == 0 else [f"exit {r.returncode}: {r.stderr.strip()[-200:]}"]
 
 
 def _classes(exe: str, cwd: Path, value: str) -> list[str]:
     (cwd / "seq").mkdir()
     args = ["import", "synthia", str(cwd / "seq"), "-o", "s.zarr", "--classes", value]
-    r = odms(exe, args, cwd, I.AS_LIMIT)
+    r = odms(exe, args, cwd, IMPORT_AS)
     return refused(r, "--classes")
 
 
@@ -546,14 +602,26 @@ def code_of(exe: str) -> Path:
     return Path(odms(str(Path(exe).parent / "python"), ["-c", where], Path.cwd()).stdout.strip())
 
 
+CATALOGUE_AS = 6 * GIB  # hostile.py's own cap (run_process); it judges memory itself where it matters
+TRACED_PYTHON = """#!/bin/sh
+# this interpreter under GNU time and strace, their reports beside the case's folder
+d=$(dirname "$(pwd)")
+exec /usr/bin/time -q -f %M -o "$d/time" {trace} "$d/strace" {python} "$@"
+"""
+
+
 def _catalogue_case(case: H.Case) -> Callable[[str, Path], list[str]]:
+    """hostile.py runs its command with sys.executable, which main() points at TRACED_PYTHON."""
     def run(exe: str, cwd: Path) -> list[str]:
-        return H.run_case(case, CATALOGUE, cwd, code=code_of(exe), inprocess=False)
+        broken = H.run_case(case, CATALOGUE, cwd, code=code_of(exe), inprocess=False)
+        traced = Ran(0, "", "", refused_allocations(cwd / "strace"), peak_rss(cwd / "time"))
+        return broken + memory_broken(traced, CATALOGUE_AS, None)
     return run
 
 
 def catalogue_cases() -> list[Case]:
-    return [Case(f"catalogue: {c.cls}", c.name, _catalogue_case(c), (c.args,)) for c in H.CASES]
+    return [Case(f"catalogue: {c.cls}", c.name, _catalogue_case(c), (c.args,), traced=c.stop is None)
+            for c in H.CASES]
 
 
 # --- running ----------------------------------------------------------------------------------
@@ -567,12 +635,45 @@ GROUPS = {"writes": write_cases, "reads": read_cases, "imports": import_cases, "
 
 def run_side(case: Case, exe: str, cwd: Path) -> list[str]:
     cwd.mkdir()
+    MEMORY.broken = []
     try:
-        return case.run(exe, cwd)
+        broken = case.run(exe, cwd)
+        return MEMORY.broken + broken
     except Exception as e:  # noqa: BLE001 - a case's setup meeting the other code's output
-        return [f"{type(e).__name__}: {str(e)[:200]}"]
+        return [f"{type(e).__name__}: {str(e)[:200]}", *MEMORY.broken]
     finally:
+        MEMORY.broken = None
         shutil.rmtree(cwd, ignore_errors=True)
+
+
+def controls(exe: str) -> dict[str, str]:
+    """Valid inputs through each kind of command the cases run, under the same caps and judge: each
+    should exit 0 with no allocation refused and its peak resident memory under the bound."""
+    cwd = Path(tempfile.mkdtemp(dir=WORK, prefix="controls-"))
+    shutil.copytree(FIXTURES / STORE, cwd / STORE)
+    shutil.copytree(FIXTURES / "train.zarr", cwd / "v.zarr")
+    rows = "".join(f"tiny,tiny/{i:06d},0.3\n" for i in range(4))
+    (cwd / "p.csv").write_text("split,example_id,d1\n" + rows)
+    rec = I.recording(cwd)
+    masks, positions = str(rec / "masks"), str(rec / "positions.csv")
+    runs = {command: (args, STORE_AS) for command, (args, _) in R.store_commands(STORE, "out").items()}
+    runs |= {"validate": (["validate", STORE], STORE_AS), "generate": (_generate("g.zarr"), STORE_AS),
+             "import recording": (["import", "recording", masks, "--positions", positions, "-o", "rec.zarr",
+                                   "--workers", "1"], IMPORT_AS),
+             "leaderboard": (["leaderboard"], IMPORT_AS),
+             "train": (["train", "-o", "run", "--val", "v.zarr", "--iterations", "2", "--batch-size", "2",
+                        "--workers", "0", "--device", "cpu"], TORCH_AS),
+             "predict": (["predict", "run", "--data", "v.zarr", "-o", "run.csv", "--device", "cpu"],
+                         TORCH_AS)}
+    seen = {name: (odms(exe, args, cwd, cap), cap) for name, (args, cap) in runs.items()}
+    seen["loaders"] = _loaders(exe, STORE, cwd), STORE_AS
+    shutil.rmtree(cwd, ignore_errors=True)
+    said = {}
+    for name, (r, cap) in seen.items():
+        failed = [r.stderr.strip()[-200:]] if r.returncode else []
+        said[name] = "; ".join([f"exit {r.returncode}, peak {r.peak_rss / MIB:.0f} MiB",
+                                *memory_broken(r, cap, RSS_BOUND[cap]), *failed])
+    return said
 
 
 def main() -> None:
@@ -599,6 +700,14 @@ def main() -> None:
         W.generate(str(FIXTURES / "train.zarr"), 4, W.PRESETS["standard"], 5, workers=1)
         CATALOGUE = H.prepare(WORK / "catalogue")
         HUGE_PNG = I.png(30000, 30000)
+        checked = {side: pool.submit(controls, exe) for side, exe in sides.items()}
+        for side, future in checked.items():
+            listed[f"controls_{side}"] = [f"{k}: {v}" for k, v in future.result().items()]
+            print(f"controls {side}:", *listed[f"controls_{side}"], sep="\n  ", file=sys.stderr, flush=True)
+        python = sys.executable
+        traced_python = WORK / "traced-python"
+        traced_python.write_text(TRACED_PYTHON.format(trace=shlex.join(TRACE), python=shlex.quote(python)))
+        traced_python.chmod(0o755)
         groups = args.groups.split(",")
         for done, group in enumerate(groups, 1):
             cases = [c for c in GROUPS[group]() if args.only in c.name]
@@ -608,18 +717,20 @@ def main() -> None:
                 if why:
                     listed["not_applicable"].append(f"{case.cls}: {case.name}: {why}")
                 applicable[case.cls] += not why
+                sys.executable = str(traced_python) if case.traced else python  # hostile.py's interpreter
                 run = {side: pool.submit(run_side, case, exe, WORK / f"{side}-{group}-{i}")
                        for side, exe in sides.items() if not (why and side == "before")}
                 for side, future in run.items():
                     broken = future.result()
                     kept[side][case.cls] += not broken
                     if broken:
-                        line = f"{case.cls}: {case.name}: {'; '.join(broken)[:300]}"
+                        line = f"{case.cls}: {case.name}: {'; '.join(broken)[:500]}"
                         listed[f"broken_{side}"].append(line)
                         if args.v:
                             print(f"BROKEN {side}: {line}", flush=True)
                 print(f"{group} {i + 1}/{len(cases)} {case.name}", file=sys.stderr, flush=True)
             save(args, total, applicable, kept, listed, groups[:done])
+        sys.executable = python
 
 
 def save(args: argparse.Namespace, total: Counter[str], applicable: Counter[str],
