@@ -51,8 +51,8 @@ def validate(path: str, progress: Callable[[str, int, int], None] | None = None)
     report = Report(str(path))
     try:
         backend = open_backend(str(path), "r")
-    except OdmsError as e:
-        report.problems.append(str(e))
+    except OdmsError as e:  # its message starts with the path, as a problem's line does already
+        report.problems.append(str(e).removeprefix(f"{path}: "))
         return report
     try:
         raw = backend.read_attrs()

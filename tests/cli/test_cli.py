@@ -81,7 +81,7 @@ def test_validate_exits_1_and_lists_problems(tmp_path):
 def test_bad_arguments_get_one_line_and_exit_2(tmp_path, args, fragments):
     r = odms(*args, cwd=tmp_path)
     if args[0] == "validate":
-        assert r.returncode == 1 and "no such store" in r.stdout
+        assert r.returncode == 1 and "problem: nowhere.zarr: no such store" in r.stdout  # the path once
         return
     assert_one_line_error(r, *fragments)
 
