@@ -24,6 +24,7 @@ import hashlib
 import os
 import re
 import shutil
+import signal
 import stat
 import uuid
 from collections.abc import Callable, Iterator
@@ -36,6 +37,7 @@ from .errors import InputError, OdmsError, OutputExistsError, OutputLockedError,
 DISK_FULL = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})
 NAME_MAX = 255  # bytes of one file name on Linux, macOS and Windows file systems alike
 MARKER = ".odms-data-partial"  # in every sibling folder odms-data makes: what proves it is ours
+_STOPS = {signal.SIGINT, signal.SIGTERM}  # held while a lock is created and before its removal is set
 _LOCK_CONTENT = re.compile(rb"\s*\d{0,20}\s*")  # what a lock file of ours holds: a process id, or nothing
 
 
@@ -153,38 +155,43 @@ def output_lock(path: str | os.PathLike, kind: Kind = FILE) -> Iterator[None]:
     store = next((p for p in lock.absolute().parents if (p / "zarr.json").is_file()), None)
     if store is not None:  # it would become part of the store (an input, most often)
         raise InputError(f"{path}: is inside the Zarr store {store}; choose an output outside it")
-    try:
-        made = _make_parents(lock)
-        fd = _open_lock(lock, path, kind)
-    except OSError as e:
-        raise write_error(path, e) from None
+    held = signal.pthread_sigmask(signal.SIG_BLOCK, _STOPS)  # a stop waits until the lock has its remover
     try:
         try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            mine = os.fstat(fd)
-            there = os.lstat(lock)
-            if (mine.st_dev, mine.st_ino) != (there.st_dev, there.st_ino):
-                raise BlockingIOError  # the holder removed it as we opened it: it was busy
-        except (BlockingIOError, FileNotFoundError):
-            holder = os.pread(fd, 64, 0).decode(errors="replace").strip() or "unknown"
-            raise kind.locked_error(f"{path}: another odms-data process (pid {holder}) is writing this "
-                                    f"{kind.noun}") from None
+            made = _make_parents(lock)
+            fd = _open_lock(lock, path, kind)
+        except OSError as e:
+            raise write_error(path, e) from None
         try:
-            os.ftruncate(fd, 0)
-            os.pwrite(fd, str(os.getpid()).encode(), 0)  # for the message of a second writer
-        except OSError:
-            pass  # a full disk: the lock holds without it, and the write itself will say so
-        try:
-            yield
-        finally:
-            lock.unlink(missing_ok=True)
-    finally:
-        os.close(fd)
-        for folder in reversed(made):
             try:
-                folder.rmdir()
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                mine = os.fstat(fd)
+                there = os.lstat(lock)
+                if (mine.st_dev, mine.st_ino) != (there.st_dev, there.st_ino):
+                    raise BlockingIOError  # the holder removed it as we opened it: it was busy
+            except (BlockingIOError, FileNotFoundError):
+                holder = os.pread(fd, 64, 0).decode(errors="replace").strip() or "unknown"
+                raise kind.locked_error(f"{path}: another odms-data process (pid {holder}) is writing "
+                                        f"this {kind.noun}") from None
+            try:
+                os.ftruncate(fd, 0)
+                os.pwrite(fd, str(os.getpid()).encode(), 0)  # for the message of a second writer
             except OSError:
-                break  # not empty: it holds the output
+                pass  # a full disk: the lock holds without it, and the write itself will say so
+            try:
+                signal.pthread_sigmask(signal.SIG_SETMASK, held)  # a stop that came meanwhile lands here
+                yield
+            finally:
+                lock.unlink(missing_ok=True)
+        finally:
+            os.close(fd)
+            for folder in reversed(made):
+                try:
+                    folder.rmdir()
+                except OSError:
+                    break  # not empty: it holds the output
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, held)
 
 
 def _ours(folder: Path, kind: Kind) -> bool:
