@@ -534,20 +534,7 @@ def _release_case(case: str) -> Callable[[str, Path], list[str]]:
 
 def _synthia_label(exe: str, cwd: Path) -> list[str]:
     """test_a_synthia_label_image_declaring_too_much_is_refused's sequence."""
-    import cv2
-    import numpy as np
-
-    seq = cwd / "SYNTHIA-SEQS-01-DAWN"
-    for k in ("GT/LABELS", "Depth", "CameraParams"):
-        (seq / k / "Stereo_Left" / "Omni_F").mkdir(parents=True)
-    for f in range(2):
-        name = f"{f:06d}"
-        (seq / "GT/LABELS/Stereo_Left/Omni_F" / f"{name}.png").write_bytes(
-            I.png(200000, 200000, depth=16, colour=2, idat=b"x"))
-        depth = np.full((I.H, I.W), 1000, np.uint16)
-        cv2.imwrite(str(seq / "Depth/Stereo_Left/Omni_F" / f"{name}.png"), depth)
-        (seq / "CameraParams/Stereo_Left/Omni_F" / f"{name}.txt").write_text(
-            " ".join(map(str, np.eye(4).flatten())) + "\n")
+    seq = I.synthia_with_huge_labels(cwd)
     before = I.snapshot(cwd)
     r = odms(exe, ["import", "synthia", str(seq), "-o", "s.zarr", "--workers", "1"], cwd, IMPORT_AS)
     return refused(r, "000000.png") + ([] if I.snapshot(cwd) == before else ["the folder changed"])

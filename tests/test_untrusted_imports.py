@@ -183,8 +183,9 @@ def test_hostile_release_is_refused_in_one_line(case, tmp_path):
     assert snapshot(tmp_path) == before
 
 
-def test_a_synthia_label_image_declaring_too_much_is_refused(tmp_path):
-    seq = tmp_path / "SYNTHIA-SEQS-01-DAWN"
+def synthia_with_huge_labels(root: Path) -> Path:
+    """A two-frame SYNTHIA sequence under `root` whose label PNGs declare 200000x200000 pixels."""
+    seq = root / "SYNTHIA-SEQS-01-DAWN"
     for k in ("GT/LABELS", "Depth", "CameraParams"):
         (seq / k / "Stereo_Left" / "Omni_F").mkdir(parents=True)
     for f in range(2):
@@ -194,6 +195,11 @@ def test_a_synthia_label_image_declaring_too_much_is_refused(tmp_path):
         cv2.imwrite(str(seq / "Depth/Stereo_Left/Omni_F" / f"{name}.png"), np.full((H, W), 1000, np.uint16))
         (seq / "CameraParams/Stereo_Left/Omni_F" / f"{name}.txt").write_text(
             " ".join(map(str, np.eye(4).flatten())) + "\n")
+    return seq
+
+
+def test_a_synthia_label_image_declaring_too_much_is_refused(tmp_path):
+    seq = synthia_with_huge_labels(tmp_path)
     before = snapshot(tmp_path)
     r = odms("import", "synthia", seq, "-o", "s.zarr", "--workers", "1", cwd=tmp_path)
     *progress, line = r.stderr.strip().splitlines()
