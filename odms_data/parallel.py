@@ -112,6 +112,16 @@ def _start_fork_server() -> None:
     ready.join()
 
 
+def end_pool(pool: ProcessPoolExecutor) -> None:
+    """End `pool` early: its work not yet started is cancelled, running work is awaited (a worker
+    may be writing into a store about to be removed) and its workers are joined. The cancelling is
+    left to the pool's own thread (`cancel_futures`): a `Future.cancel()` from here raced that thread
+    marking every pending future failed when a worker died, as a stop signal to the whole process
+    group kills them, and Python 3.11 printed that thread's InvalidStateError traceback after the
+    one "interrupted" line (CPython gh-107219, fixed in 3.12)."""
+    pool.shutdown(wait=True, cancel_futures=True)
+
+
 def _nothing() -> None:
     pass
 
@@ -131,24 +141,19 @@ def _exit_with(parent: multiprocessing.process.BaseProcess) -> None:
     os._exit(1)
 
 
-def _cancel(handles: list[Any]) -> None:
-    for h in handles:
-        h.cancel()
-
-
 def ordered_map(
     submit: Callable[[Item], Handle],
     collect: Callable[[Handle], Result],
     items: Iterable[Item],
     ahead: int | Callable[[], int],
-    abandon: Callable[[list[Handle]], None] = _cancel,
+    abandon: Callable[[list[Handle]], None],
 ) -> Generator[Result, None, None]:
     """`collect(submit(item))` for every item, in item order, with at most `ahead` items submitted
     but not yet collected; `ahead` may be a function, asked at every top-up (a cluster that grows).
 
     `submit` starts the work of an item and returns a handle (a future, say); `collect` waits for
     a handle's result. When iteration stops early or raises, `abandon` gets the handles still
-    pending, oldest first (by default each one's `cancel()` is called).
+    pending, oldest first (a pool's are ended with `end_pool`).
     """
     todo = iter(items)
     pending: deque[Handle] = deque()

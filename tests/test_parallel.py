@@ -106,7 +106,7 @@ def test_ordered_map_keeps_item_order_and_its_bound():
             in_flight -= 1
             return f.result()
 
-        assert list(ordered_map(submit, collect, range(12), 3)) == [x * x for x in range(12)]
+        assert list(ordered_map(submit, collect, range(12), 3, print)) == [x * x for x in range(12)]
     assert most == 3
 
 
@@ -125,6 +125,31 @@ def test_ordered_map_asks_a_callable_bound_at_every_top_up_and_abandons_the_rest
     assert submitted == [0, 1, 2, 3, 4, 5, 6]  # at most 1, then 2, then 4 pending after each top-up
     results.close()
     assert abandoned == [3, 4, 5, 6]
+
+
+WORKER_DIES_AS_ITS_POOL_ENDS = """
+import os, signal, threading, time
+from odms_data.parallel import end_pool, worker_pool
+
+if __name__ == "__main__":
+    pool = worker_pool(1)
+    worker = pool.submit(os.getpid).result()
+    futures = [pool.submit(time.sleep, 2)] + [pool.submit(int) for _ in range(6)]
+    while not futures[0].running():  # handed to the worker: it dies working
+        time.sleep(0.01)
+    threading.Timer(0.5, os.kill, (worker, signal.SIGKILL)).start()  # as a stop to the whole group does
+    end_pool(pool)
+    print(sum(f.cancelled() for f in futures), type(futures[0].exception()).__name__)
+"""
+
+
+def test_a_pool_ended_while_its_worker_dies_prints_nothing():
+    """Work not started is cancelled by the pool's own thread: a cancel from the caller raced that
+    thread failing every pending future when the worker died, and Python 3.11 printed its
+    InvalidStateError traceback."""
+    p = subprocess.run([sys.executable, "-c", WORKER_DIES_AS_ITS_POOL_ENDS], capture_output=True,
+                       text=True, timeout=120)
+    assert (p.returncode, p.stdout, p.stderr) == (0, "5 BrokenProcessPool\n", "")
 
 
 def _kernel_loaded(_: int) -> bool:

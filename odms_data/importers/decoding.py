@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 import sys
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from concurrent.futures import Future, ProcessPoolExecutor, wait
+from concurrent.futures import Future, ProcessPoolExecutor
 from contextlib import AbstractContextManager, contextmanager
 from dataclasses import dataclass, field
 from typing import TypeVar
@@ -19,7 +19,7 @@ from typing import TypeVar
 import numpy as np
 
 from ..errors import InputError
-from ..parallel import cores, ordered_map, worker_pool
+from ..parallel import cores, end_pool, ordered_map, worker_pool
 from ..store.digest import frame_digests
 from ..store.masks import FrameStats, pack, packed_width
 from ..store.shard_writer import MaskSink
@@ -116,13 +116,13 @@ class Workers:
 
     def __exit__(self, *exc) -> None:
         if self.pool is not None:
-            self.pool.shutdown(cancel_futures=True)
+            end_pool(self.pool)
 
     @contextmanager
     def map(self, fn: Callable[[Item], Result], items: Iterable[Item]) -> Iterator[Iterator[Result]]:
-        """`fn(item)` for every item (a picklable top-level function), results in item order; on
-        leaving, items not started are cancelled and running ones awaited, so that no worker
-        writes into a store being removed."""
+        """`fn(item)` for every item (a picklable top-level function), results in item order. Left
+        early, the pool ends (parallel.end_pool): items not started are cancelled and running ones
+        awaited, so that no worker writes into a store being removed."""
         if self.pool is None:
             def serial() -> Iterator[Result]:
                 for t in items:
@@ -134,7 +134,7 @@ class Workers:
             return
         pool = self.pool
         results = ordered_map(lambda t: pool.submit(fn, t), Future.result, items, 2 * self.n,
-                              _cancel_and_wait)
+                              lambda _: end_pool(pool))
         try:
             yield results
         finally:
@@ -143,9 +143,3 @@ class Workers:
     def run(self, tasks: list[FrameTask]) -> AbstractContextManager[Iterator[FrameResult]]:
         """`run_frames` of every task, in order (see `map`)."""
         return self.map(run_frames, tasks)
-
-
-def _cancel_and_wait(futures: list[Future]) -> None:
-    for f in futures:
-        f.cancel()
-    wait(futures)

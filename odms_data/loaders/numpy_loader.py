@@ -20,7 +20,7 @@ from contextlib import closing
 import numpy as np
 
 from ..errors import InputError
-from ..parallel import ordered_map, worker_pool
+from ..parallel import end_pool, ordered_map, worker_pool
 from ..simulate.box_examples import BoxParams
 from ..simulate.params import GeneratorParams
 from .box_sources import GeneratedBoxExamples, StoreBoxExamples
@@ -89,8 +89,9 @@ class Batches:
 
         def abandon(handles: list[tuple[Future, str | None]]) -> None:
             """Stopped early: batches made but not taken go back to the pool."""
+            end_pool(pool)
             for future, lent in handles:
-                if not future.cancel() and future.exception() is None:
+                if not future.cancelled() and future.exception() is None:
                     blocks.give_back(future.result()[0], lent)
 
         with worker_pool(self.workers, _set_source, (self.source,)) as pool:

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
-from ..parallel import cores, ordered_map, worker_pool, workers_for
+from ..parallel import cores, end_pool, ordered_map, worker_pool, workers_for
 from ..store.digest import StoreDigest
 from ..store.format import StoreAttrs
 from ..store.manifests import SplitManifest, load_manifest
@@ -75,7 +75,8 @@ def _run_local(tasks: Iterable[ShardTask], workers: int) -> Iterator[ShardResult
         yield from map(run, tasks)
         return
     with worker_pool(workers) as pool:
-        yield from ordered_map(lambda t: pool.submit(run, t), Future.result, tasks, 2 * workers)
+        yield from ordered_map(lambda t: pool.submit(run, t), Future.result, tasks, 2 * workers,
+                               lambda _: end_pool(pool))
 
 
 def generate(
