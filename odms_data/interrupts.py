@@ -3,10 +3,13 @@ raised in the main thread, except inside an `uninterrupted` block, which it wait
 
 from __future__ import annotations
 
+import signal
 from collections.abc import Iterator
 from contextlib import contextmanager
 
 from .errors import Interrupted
+
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 _deferring = 0  # depth of `uninterrupted` blocks
 _deferred: int | None = None  # the signal that came during one

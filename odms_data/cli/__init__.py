@@ -26,7 +26,7 @@ import click
 
 from .._version import __version__
 from ..errors import Interrupted, OdmsError
-from ..interrupts import stop_requested
+from ..interrupts import STOP_SIGNALS, stop_requested
 from ..shown_text import for_terminal
 
 
@@ -70,9 +70,6 @@ COMMANDS = {  # command name -> (module of this package, attribute): imported on
     "train": ("network_commands", "train"),
     "predict": ("network_commands", "predict"),
 }
-
-
-STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 
 class _SwallowedStops:
