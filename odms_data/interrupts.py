@@ -27,14 +27,22 @@ def stop_requested(signum: int) -> None:
 
 @contextmanager
 def uninterrupted() -> Iterator[None]:
-    """A write that a stop signal must not cut in two (zarr finishes a write on its own I/O thread
-    after the main thread is interrupted, which would leave files behind the clean-up)."""
+    """A step that a stop signal must not cut in two: a write zarr finishes on its own I/O thread
+    after the main thread is interrupted, a sibling made and its removal set (outputs), the renames
+    that put an output in place. A stop that comes meanwhile is raised when the block ends. The
+    command line's handler waits for it even when the signal reaches another thread (zarr's, a
+    pool's), which a signal mask cannot prevent; the mask holds Python's default handlers (a
+    library's Ctrl-C) where this is the only thread."""
     global _deferring, _deferred
     _deferring += 1
+    held = None
     try:
+        held = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
         yield
     finally:
         _deferring -= 1
+        if held is not None:
+            signal.pthread_sigmask(signal.SIG_SETMASK, held)  # a signal held meanwhile is handled here
     if not _deferring and _deferred is not None:
         signum, _deferred = _deferred, None
         raise Interrupted(signum)

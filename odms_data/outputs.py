@@ -24,7 +24,6 @@ import hashlib
 import os
 import re
 import shutil
-import signal
 import stat
 import uuid
 from collections.abc import Callable, Iterator
@@ -33,11 +32,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .errors import InputError, OdmsError, OutputExistsError, OutputLockedError, WriteError
+from .interrupts import uninterrupted
 
 DISK_FULL = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})
 NAME_MAX = 255  # bytes of one file name on Linux, macOS and Windows file systems alike
 MARKER = ".odms-data-partial"  # in every sibling folder odms-data makes: what proves it is ours
-_STOPS = {signal.SIGINT, signal.SIGTERM}  # held while a lock is created and before its removal is set
 _LOCK_CONTENT = re.compile(rb"\s*\d{0,20}\s*")  # what a lock file of ours holds: a process id, or nothing
 
 
@@ -155,14 +154,16 @@ def output_lock(path: str | os.PathLike, kind: Kind = FILE) -> Iterator[None]:
     store = next((p for p in lock.absolute().parents if (p / "zarr.json").is_file()), None)
     if store is not None:  # it would become part of the store (an input, most often)
         raise InputError(f"{path}: is inside the Zarr store {store}; choose an output outside it")
-    held = signal.pthread_sigmask(signal.SIG_BLOCK, _STOPS)  # a stop waits until the lock has its remover
+    made: list[Path] = []
+    fd: int | None = None
+    locked = False
     try:
-        try:
-            made = _make_parents(lock)
-            fd = _open_lock(lock, path, kind)
-        except OSError as e:
-            raise write_error(path, e) from None
-        try:
+        with uninterrupted():  # a stop waits until what is made here is set to be removed
+            try:
+                made = _make_parents(lock)
+                fd = _open_lock(lock, path, kind)
+            except OSError as e:
+                raise write_error(path, e) from None
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
                 mine = os.fstat(fd)
@@ -173,25 +174,23 @@ def output_lock(path: str | os.PathLike, kind: Kind = FILE) -> Iterator[None]:
                 holder = os.pread(fd, 64, 0).decode(errors="replace").strip() or "unknown"
                 raise kind.locked_error(f"{path}: another odms-data process (pid {holder}) is writing "
                                         f"this {kind.noun}") from None
+            locked = True
             try:
                 os.ftruncate(fd, 0)
                 os.pwrite(fd, str(os.getpid()).encode(), 0)  # for the message of a second writer
             except OSError:
                 pass  # a full disk: the lock holds without it, and the write itself will say so
-            try:
-                signal.pthread_sigmask(signal.SIG_SETMASK, held)  # a stop that came meanwhile lands here
-                yield
-            finally:
-                lock.unlink(missing_ok=True)
-        finally:
-            os.close(fd)
-            for folder in reversed(made):
-                try:
-                    folder.rmdir()
-                except OSError:
-                    break  # not empty: it holds the output
+        yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, held)
+        if locked:
+            lock.unlink(missing_ok=True)
+        if fd is not None:
+            os.close(fd)
+        for folder in reversed(made):
+            try:
+                folder.rmdir()
+            except OSError:
+                break  # not empty: it holds the output
 
 
 def _ours(folder: Path, kind: Kind) -> bool:
@@ -222,7 +221,7 @@ def _make_sibling_folder(folder: Path, target: Path, kind: Kind) -> None:
     interrupted run's) is removed first, anything else there is refused."""
     if os.path.lexists(folder):
         _refuse_foreign(folder, target, kind)
-        shutil.rmtree(folder)
+        _remove_sibling_folder(folder)
     folder.mkdir()
     try:
         fd = os.open(folder / MARKER, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
@@ -233,6 +232,20 @@ def _make_sibling_folder(folder: Path, target: Path, kind: Kind) -> None:
     except BaseException:
         shutil.rmtree(folder, ignore_errors=True)  # just made: a full disk, say
         raise
+
+
+def _remove_sibling_folder(folder: Path) -> None:
+    """Remove a sibling folder of ours, its marker last: one whose removal a stop cut short is
+    still provably ours, and the next run takes it over instead of refusing it. What cannot be
+    removed stays (the folder made next in its place then fails in one line)."""
+    with os.scandir(folder) as entries:
+        for entry in entries:
+            if entry.name != MARKER:
+                if entry.is_dir(follow_symlinks=False):
+                    shutil.rmtree(entry.path, ignore_errors=True)
+                else:
+                    Path(entry.path).unlink(missing_ok=True)
+    shutil.rmtree(folder, ignore_errors=True)
 
 
 class Partial:
@@ -251,25 +264,28 @@ class Partial:
         sibling is refused now, before the work, rather than when the output is moved into place."""
         if self.is_folder or self.target.is_dir():  # the two cases that move the old output aside
             _refuse_foreign(sibling(self.target, ".replaced"), self.target, self.kind)
-        _make_sibling_folder(self.folder, self.target, self.kind)
-        self._made = True
+        with uninterrupted():  # a stop waits until `discard` knows to remove it
+            _make_sibling_folder(self.folder, self.target, self.kind)
+            self._made = True
         return self.path
 
     def commit(self) -> None:
-        """Flush the finished output and rename it onto the target, replacing what is there."""
-        fsync_tree(self.path)
-        if self.is_folder:  # only now: a stale partial without the marker is refused, not removed
-            (self.folder / MARKER).unlink()
-        _move_into_place(self.path, self.target, self.kind)
-        if not self.is_folder:
-            (self.folder / MARKER).unlink()
-            self.folder.rmdir()
-        self._made = False
+        """Flush the finished output and rename it onto the target, replacing what is there. A stop
+        waits for the end: between the renames of a replaced folder, no output is at the path."""
+        with uninterrupted():
+            fsync_tree(self.path)
+            if self.is_folder:  # only now: a stale partial without the marker is refused, not removed
+                (self.folder / MARKER).unlink()
+            _move_into_place(self.path, self.target, self.kind)
+            if not self.is_folder:
+                (self.folder / MARKER).unlink()
+                self.folder.rmdir()
+            self._made = False
 
     def discard(self) -> None:
         """Remove what was written, if this made it."""
         if self._made and self.folder.is_dir() and not self.folder.is_symlink():  # made under our lock
-            shutil.rmtree(self.folder, ignore_errors=True)
+            _remove_sibling_folder(self.folder)
         self._made = False
 
 
@@ -309,7 +325,7 @@ def _move_into_place(new: Path, target: Path, kind: Kind) -> None:
         _make_sibling_folder(aside, target, kind)
         target.rename(aside / target.name)
         new.rename(target)
-        shutil.rmtree(aside)
+        _remove_sibling_folder(aside)
     sync_parent(target)
 
 

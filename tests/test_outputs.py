@@ -5,13 +5,23 @@ from __future__ import annotations
 import hashlib
 import os
 import signal
+import threading
+import time
 
 import pytest
 
+from odms_data import outputs
 from odms_data.errors import InputError, Interrupted, OutputExistsError, WriteError
 from odms_data.evaluation.predictions import read_predictions
 from odms_data.interrupts import stop_requested, uninterrupted
-from odms_data.outputs import atomic_file, check_replaceable, replaced_via_partial, write_text
+from odms_data.outputs import (
+    atomic_file,
+    atomic_folder,
+    check_replaceable,
+    replaced_via_partial,
+    write_text,
+)
+from odms_data.store.writer import StoreWriter
 
 
 def test_a_failed_write_keeps_the_old_file_and_leaves_nothing(tmp_path):
@@ -71,6 +81,82 @@ def test_a_stop_signal_waits_for_the_write_in_progress():
         assert done and e.value.signum == signal.SIGTERM
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+def test_a_ctrl_c_with_pythons_own_handler_waits_for_the_write_in_progress():
+    """Used as a library, without the command line's handler: the signal is held, not deferred,
+    and the next stop outside a block is not held."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    done = []
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            with uninterrupted():
+                signal.raise_signal(signal.SIGINT)  # to this thread, as a terminal's Ctrl-C reaches a script
+                time.sleep(0.01)
+                done.append("the write finished")
+        assert done
+        signal.signal(signal.SIGINT, lambda signum, frame: stop_requested(signum))
+        with pytest.raises(Interrupted):
+            signal.raise_signal(signal.SIGINT)
+            time.sleep(0.01)
+            done.append("the stop was deferred")
+        assert done == ["the write finished"]
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+@pytest.fixture
+def stop_from_another_thread(monkeypatch):
+    """`stop_after(name, call)`: a SIGTERM, handled as the command line handles it, comes right
+    after outputs.<name>'s `call`-th call returns, by way of another thread (zarr's I/O thread, a
+    pool's), where a signal mask on the main thread does not hold it off."""
+    previous = signal.signal(signal.SIGTERM, lambda signum, frame: stop_requested(signum))
+    other = threading.Thread(target=threading.Event().wait, args=(60,), daemon=True)
+    other.start()
+
+    def stop_after(name: str, call: int) -> None:
+        original, calls = getattr(outputs, name), []
+
+        def then_stop(*args):
+            result = original(*args)
+            calls.append(name)
+            if len(calls) == call:
+                signal.pthread_kill(other.ident, signal.SIGTERM)
+                for _ in range(100):  # each call runs the handler, in this thread, once the signal is there
+                    signal.pthread_kill(other.ident, 0)
+                    time.sleep(0.001)
+            return result
+        monkeypatch.setattr(outputs, name, then_stop)
+
+    yield stop_after
+    signal.signal(signal.SIGTERM, previous)
+
+
+@pytest.mark.parametrize(("step", "call"), [("_open_lock", 1), ("_make_sibling_folder", 1),
+                                            ("_make_sibling_folder", 2)],
+                         ids=["lock made", "partial made", "old output set aside"])
+def test_a_stop_as_a_sibling_is_made_leaves_no_sibling(tmp_path, stop_from_another_thread, step, call):
+    """Each sibling of an output (the lock, `.partial`, the `.replaced` holding the old output) is
+    removed again by a stop that comes right after it is made: the stop waits until its removal is
+    set, or until the output is in place."""
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "old").write_text("the old output")
+    stop_from_another_thread(step, call)
+    run = outputs.Kind("run", lambda p: None)
+    with pytest.raises(Interrupted), atomic_folder(out, run, overwrite=True) as new:
+        (new / "new").write_text("the new output")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+    assert [p.name for p in out.iterdir()] == (["new"] if call == 2 else ["old"])
+
+
+def test_a_store_writer_stopped_as_its_partial_store_is_made_leaves_nothing(
+    tmp_path, stop_from_another_thread
+):
+    stop_from_another_thread("_make_sibling_folder", 1)
+    with pytest.raises(Interrupted), StoreWriter(str(tmp_path / "s.zarr")):
+        pass
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_the_predictions_hash_is_the_files(tmp_path):

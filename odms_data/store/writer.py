@@ -142,27 +142,28 @@ class StoreWriter:
         if not self.local:
             _check_new_url_store(self.path, self.overwrite)
             return self
-        with ExitStack() as held:
-            held.enter_context(output_lock(self.path, STORE))
+        partial: Partial = self._partial  # type: ignore[assignment]  # local
+        try:  # into `_held` at once: a stop anywhere in here releases what was taken so far
+            self._held.enter_context(output_lock(self.path, STORE))
             check_replaceable(self.path, self.overwrite, STORE)
+            self._held.callback(partial.discard)  # set before it is made: a stop in between leaves nothing
             try:
-                self._partial.make()  # type: ignore[union-attr]  # local
+                partial.make()
             except OSError as e:
                 raise write_error(self.path, e) from None
-            self._held = held.pop_all()
+        except BaseException:
+            self._held.close()
+            raise
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:
-        with self._held:
-            if not self._committed:
-                if self.backend is not None:
-                    try:
-                        self.backend.close()
-                    except Exception:
-                        if exc is None:
-                            raise
-                if self._partial is not None:
-                    self._partial.discard()
+        with self._held:  # the partial store is discarded (a no-op once committed), the lock released
+            if not self._committed and self.backend is not None:
+                try:
+                    self.backend.close()
+                except Exception:
+                    if exc is None:
+                        raise
         where = str(self._partial.folder) if self._partial else self.path
         if isinstance(exc, OSError) and (exc.errno in DISK_FULL or _inside(exc.filename, where)):
             raise write_error(self.path, exc) from exc
