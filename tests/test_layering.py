@@ -15,14 +15,15 @@ PACKAGE = Path(odms_data.__file__).resolve().parent
 
 # the rank of each top-level module and folder; a module may import lower ranks and its own folder
 LAYERS = {
-    "_version": 0, "errors": 0, "safe_json": 1,
-    "protocol": 1, "extras": 1, "resources": 1, "paths": 1, "shown_text": 1, "parallel": 1, "outputs": 1,
+    "_version": 0, "errors": 0,
     "interrupts": 1,
-    "store": 2,
-    "simulate": 3, "importers": 3, "evaluation": 3, "publish": 3,
-    "loaders": 4,
-    "network": 5,
-    "cli": 6,
+    "safe_json": 2, "protocol": 2, "extras": 2, "resources": 2, "paths": 2, "shown_text": 2, "parallel": 2,
+    "outputs": 2,
+    "store": 3,
+    "simulate": 4, "importers": 4, "evaluation": 4, "publish": 4,
+    "loaders": 5,
+    "network": 6,
+    "cli": 7,
 }
 HEAVY = ("cv2", "pandas", "zarr", "h5py", "jsonschema", "matplotlib", "PIL", "torch", "tensorflow", "jax",
          "grain", "dask")
