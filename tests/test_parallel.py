@@ -139,7 +139,7 @@ if __name__ == "__main__":
         time.sleep(0.01)
     threading.Timer(0.5, os.kill, (worker, signal.SIGKILL)).start()  # as a stop to the whole group does
     end_pool(pool)
-    print(sum(f.cancelled() for f in futures), type(futures[0].exception()).__name__)
+    print(*sorted({"cancelled" if f.cancelled() else type(f.exception()).__name__ for f in futures}))
 """
 
 
@@ -149,7 +149,8 @@ def test_a_pool_ended_while_its_worker_dies_prints_nothing():
     InvalidStateError traceback."""
     p = subprocess.run([sys.executable, "-c", WORKER_DIES_AS_ITS_POOL_ENDS], capture_output=True,
                        text=True, timeout=120)
-    assert (p.returncode, p.stdout, p.stderr) == (0, "5 BrokenProcessPool\n", "")
+    # the one working dies with the pool; the rest are cancelled (but one the pool had queued for it)
+    assert (p.returncode, p.stdout, p.stderr) == (0, "BrokenProcessPool cancelled\n", ""), p.stderr
 
 
 def _kernel_loaded(_: int) -> bool:
