@@ -180,6 +180,7 @@ def output_lock(path: str | os.PathLike, kind: Kind = FILE) -> Iterator[None]:
                 os.pwrite(fd, str(os.getpid()).encode(), 0)  # for the message of a second writer
             except OSError:
                 pass  # a full disk: the lock holds without it, and the write itself will say so
+            _put_back_set_aside(Path(path))
         yield
     finally:
         if locked:
@@ -232,6 +233,17 @@ def _make_sibling_folder(folder: Path, target: Path, kind: Kind) -> None:
     except BaseException:
         shutil.rmtree(folder, ignore_errors=True)  # just made: a full disk, say
         raise
+
+
+def _put_back_set_aside(target: Path) -> None:
+    """Move back an old output that a commit killed between its two renames left set aside in
+    `<target>.replaced` (the new output never reached `target`): it is the user's, not debris.
+    Only from a `.replaced` with odms-data's marker, which a commit writes before the rename."""
+    aside = sibling(target, ".replaced")
+    old = aside / target.name
+    if not os.path.lexists(target) and os.path.lexists(old) and _ours(aside, FILE):
+        old.rename(target)
+        _remove_sibling_folder(aside)
 
 
 def _remove_sibling_folder(folder: Path) -> None:
@@ -324,7 +336,11 @@ def _move_into_place(new: Path, target: Path, kind: Kind) -> None:
         aside = sibling(target, ".replaced")
         _make_sibling_folder(aside, target, kind)
         target.rename(aside / target.name)
-        new.rename(target)
+        try:
+            new.rename(target)
+        except BaseException:
+            _put_back_set_aside(target)
+            raise
         _remove_sibling_folder(aside)
     sync_parent(target)
 

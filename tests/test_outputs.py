@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import os
 import signal
+import subprocess
+import sys
 import threading
 import time
 
@@ -143,8 +146,7 @@ def test_a_stop_as_a_sibling_is_made_leaves_no_sibling(tmp_path, stop_from_anoth
     out.mkdir()
     (out / "old").write_text("the old output")
     stop_from_another_thread(step, call)
-    run = outputs.Kind("run", lambda p: None)
-    with pytest.raises(Interrupted), atomic_folder(out, run, overwrite=True) as new:
+    with pytest.raises(Interrupted), atomic_folder(out, RUN, overwrite=True) as new:
         (new / "new").write_text("the new output")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
     assert [p.name for p in out.iterdir()] == (["new"] if call == 2 else ["old"])
@@ -157,6 +159,64 @@ def test_a_store_writer_stopped_as_its_partial_store_is_made_leaves_nothing(
     with pytest.raises(Interrupted), StoreWriter(str(tmp_path / "s.zarr")):
         pass
     assert list(tmp_path.iterdir()) == []
+
+
+RUN = outputs.Kind("run", lambda p: None)
+
+KILLED_BETWEEN_THE_RENAMES = """
+import os, signal, sys
+from pathlib import Path
+from odms_data import outputs
+
+out = Path(sys.argv[1])
+rename = os.rename
+
+def killed_at_the_second(src, dst):
+    if Path(dst) == out:  # the old output is set aside; the new one is about to take its place
+        os.kill(os.getpid(), signal.SIGKILL)
+    rename(src, dst)
+
+os.rename = killed_at_the_second
+with outputs.atomic_folder(out, outputs.Kind("run", lambda p: None), overwrite=True) as new:
+    (new / "new").write_text("the new output")
+"""
+
+
+def _old_output(tmp_path):
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "old").write_text("the old output")
+    return out
+
+
+def test_an_old_output_set_aside_by_a_killed_commit_is_put_back(tmp_path):
+    """kill -9 between a commit's two renames leaves the old output in `<out>.replaced`; the next
+    write of `out` puts it back before anything else (here it is then refused: it exists)."""
+    out = _old_output(tmp_path)
+    p = subprocess.run([sys.executable, "-c", KILLED_BETWEEN_THE_RENAMES, str(out)], timeout=120)
+    assert p.returncode == -signal.SIGKILL and not out.exists()
+    assert (tmp_path / "run.replaced" / "run" / "old").read_text() == "the old output"
+    with pytest.raises(OutputExistsError), atomic_folder(out, RUN):
+        pass
+    assert [f.read_text() for f in out.iterdir()] == ["the old output"]
+    assert not (tmp_path / "run.replaced").exists()
+
+
+def test_a_failed_rename_into_place_puts_the_old_output_back(tmp_path, monkeypatch):
+    out = _old_output(tmp_path)
+    rename = os.rename
+
+    def failing_into_place(src, dst):  # the new output's rename only
+        if os.fspath(src) == f"{out}.partial":
+            raise OSError(errno.EIO, "Input/output error", os.fspath(src))
+        rename(src, dst)
+
+    monkeypatch.setattr(os, "rename", failing_into_place)
+    with pytest.raises(WriteError, match="run: cannot be written: Input/output error"):
+        with atomic_folder(out, RUN, overwrite=True) as new:
+            (new / "new").write_text("the new output")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+    assert [f.read_text() for f in out.iterdir()] == ["the old output"]
 
 
 def test_the_predictions_hash_is_the_files(tmp_path):
