@@ -297,7 +297,12 @@ class Hdf5Backend(Backend):
             raise StoreError(f"{self.path}: '{name}' is a {type(link).__name__}, not an array of the file")
         if not isinstance(arr, h5py.Dataset):  # a damaged header can turn it into a group or type
             raise StoreError(f"{self.path}: '{name}' is a {type(arr).__name__}, not an array")
-        return BoundedDataset(arr) if self.mode == "r" else arr
+        if self.mode != "r":
+            return arr
+        try:
+            return BoundedDataset(arr)  # reads its creation properties: a damaged header fails here
+        except Exception as e:
+            raise StoreError(f"{self.path}: array '{name}' is unreadable ({type(e).__name__}: {e})") from e
 
     def read_attrs(self) -> dict[str, Any] | None:
         try:

@@ -87,6 +87,13 @@ def _bytes_on_disk(path: str) -> int:
 
 # --- HDF5 -------------------------------------------------------------------------------------
 def _hdf5_problems(backend: Any, name: str, arr: Any) -> list[str]:
+    try:
+        return _hdf5_layout_problems(name, arr)
+    except Exception as e:  # libhdf5 on damaged metadata (a chunk B-tree): RuntimeError, OSError, ...
+        return [f"dataset '{name}' is unreadable ({type(e).__name__}: {e})"]
+
+
+def _hdf5_layout_problems(name: str, arr: Any) -> list[str]:
     dset = arr.dset  # a BoundedDataset's; Hdf5Backend.array refuses links
     if dset.is_virtual or dset.external:
         return [f"'{name}' is a {'virtual' if dset.is_virtual else 'external'} dataset, "

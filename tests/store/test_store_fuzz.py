@@ -2,6 +2,7 @@
 correctly or are refused with the project's own StoreError, never another exception."""
 
 import json
+import re
 import shutil
 from pathlib import Path
 
@@ -102,3 +103,22 @@ def test_random_bytes_as_a_whole_hdf5_file(tmp_path_factory, data):
     path = tmp_path_factory.mktemp("f") / "s.h5"
     path.write_bytes(b"\x89HDF\r\n\x1a\n" + data)
     read_everything(path)
+
+
+# the signatures that start HDF5's metadata blocks (B-trees, heaps, symbol tables, object headers, ...)
+HDF5_BLOCKS = re.compile(rb"TREE|HEAP|SNOD|GCOL|OHDR|OCHK|BTHD|BTIN|BTLF|FRHP|FHDB|FHIB|FSHD|FSSE"
+                         rb"|EAHD|EAIB|EADB|FAHD|FADB")
+
+
+def test_each_hdf5_metadata_block_damaged_in_turn(stores, tmp_path):
+    """libhdf5 raises RuntimeError, OSError, KeyError, ... on damaged metadata (a chunk B-tree's
+    signature: 'Can't get number of chunks'); each is a StoreError or a problem of validate's."""
+    raw = stores["s.h5"].read_bytes()
+    blocks = [m.start() for m in HDF5_BLOCKS.finditer(raw)]
+    assert sum(raw[b:b + 4] == b"TREE" for b in blocks) >= 8  # a chunk index for each array at least
+    for at in blocks:
+        damaged = bytearray(raw)
+        damaged[at] ^= 0xFF
+        path = tmp_path / f"at-{at}.h5"
+        path.write_bytes(bytes(damaged))
+        read_everything(path)
