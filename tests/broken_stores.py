@@ -288,6 +288,23 @@ def _h5_link(kind: str) -> Callable[[Path], None]:
     return damage
 
 
+def _empty_chunk_side(path: Path) -> None:
+    """`area` declares chunks of 0 frames (zarr opens such an array)."""
+    meta_path = path / "area" / "zarr.json"
+    meta = json.loads(meta_path.read_text())
+    meta["chunk_grid"]["configuration"]["chunk_shape"][0] = 0
+    meta_path.write_text(json.dumps(meta))
+
+
+def _h5_chunk_indexes_damaged(path: Path) -> None:
+    """The signature of every chunk B-tree node (version 1 "TREE", node type 1) damaged."""
+    raw = bytearray(path.read_bytes())
+    nodes = [at for at in range(len(raw)) if raw[at:at + 4] == b"TREE" and raw[at + 4] == 1]
+    for at in nodes:
+        raw[at] ^= 0xFF
+    path.write_bytes(bytes(raw))
+
+
 def _deep_json(path: Path) -> None:
     deep = "[" * 100_000 + "]" * 100_000
     if path.is_dir():
@@ -312,4 +329,6 @@ HOSTILE: dict[str, tuple[str, Callable[[Path], None]]] = {
     "masks an external link": ("h5", _h5_link("external")),
     "masks a virtual dataset": ("h5", _h5_link("virtual")),
     "attributes nested 100,000 deep": ("zarr h5", _deep_json),
+    "a chunk shape with an empty side": ("zarr", _empty_chunk_side),
+    "every chunk index damaged": ("h5", _h5_chunk_indexes_damaged),
 }
