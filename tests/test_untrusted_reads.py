@@ -155,7 +155,9 @@ def test_a_run_folder_is_checked_before_anything_is_built(tmp_path):
     import torch
 
     config = {"model": "odn-l", "n_obs": 10, "val": ["v.zarr"], "seed": 123}
-    runs = {"huge": {**config, "n_obs": 1_000_000}, "list": config, "no-model": config}
+    runs = {"huge": {**config, "n_obs": 1_000_000}, "list": config, "no-model": config,
+            "half": {**config, "n_obs": 2.5}, "letters": {**config, "val": "v.zarr"},
+            "seed": {**config, "seed": 2**64}}
     for name, c in runs.items():
         (tmp_path / name).mkdir()
         (tmp_path / name / "config.json").write_text(json.dumps({"config": c, "odms_data": "0"}))
@@ -168,6 +170,9 @@ def test_a_run_folder_is_checked_before_anything_is_built(tmp_path):
     assert_refused(results[0], "huge", "n_obs must be at most 100")
     assert_refused(results[1], "list", "holds a list, not a dict")
     assert_refused(results[2], "no-model", "'model' is list, not dict")
+    assert_refused(results[3], "half", "n_obs must be a whole number, got 2.5")
+    assert_refused(results[4], "letters", "val must be a list of strings, got 'v.zarr'")
+    assert_refused(results[5], "seed", f"seed must be at most {2**64 - 1}")
 
 
 def test_predict_never_predicts_from_a_missing_chunk(hostile):

@@ -18,12 +18,13 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import os
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Any, get_type_hints
 
 from .. import safe_json
 from .._version import __version__
@@ -39,6 +40,7 @@ PER_SET = "per-set"  # predict's checkpoint choice: each set's own best (the aut
 # sane limits, checked before anything is built: a network of n_obs inputs takes 26 KB per input
 # and a batch n_obs x 50 KB per example, so a config.json from a stranger cannot ask for gigabytes
 MAX_OBS, MAX_BATCH, MAX_ITERATIONS = 100, 8192, 10**9
+MAX_SEED = 2**64 - 1  # torch.manual_seed's largest
 AddRow = Callable[[int, float, str, float, float], None]  # (iteration, seconds, set, loss, percent error)
 
 
@@ -69,7 +71,8 @@ class TrainConfig:
             if getattr(self, name) < least
         ] + [
             f"{name} must be at most {most}, got {getattr(self, name)}"
-            for name, most in (("n_obs", MAX_OBS), ("batch_size", MAX_BATCH), ("iterations", MAX_ITERATIONS))
+            for name, most in (("n_obs", MAX_OBS), ("batch_size", MAX_BATCH), ("iterations", MAX_ITERATIONS),
+                               ("seed", MAX_SEED))
             if getattr(self, name) > most
         ]
         if self.preset not in v.recipe.presets:
@@ -99,16 +102,38 @@ class TrainConfig:
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> TrainConfig:
-        known = {f.name for f in fields(cls)}
-        try:
-            values: dict[str, Any] = {k: tuple(v) if k == "val" else v for k, v in d.items() if k in known}
-            return cls(**values)
-        except TypeError as e:
-            raise InputError(f"training configuration: {e}") from None
+        """The config a run folder's config.json holds, each value of its field's JSON type (a
+        stranger's `n_obs: 2.5` or `val: "v.zarr"` would reach the network or be read as letters)."""
+        if not isinstance(d, dict):
+            raise InputError(f"training configuration: a JSON object, not {type(d).__name__}")
+        hints = get_type_hints(cls)
+        return cls(**{f.name: _of_type(f.name, d[f.name], hints[f.name]) for f in fields(cls) if f.name in d})
 
     def differences(self, other: TrainConfig) -> list[str]:
         mine, theirs = self.to_json(), other.to_json()
         return [f"{k} {theirs[k]!r} here, {mine[k]!r} asked" for k in mine if mine[k] != theirs[k]]
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool)
+
+
+_JSON_TYPES: dict[Any, tuple[str, Callable[[Any], bool]]] = {
+    bool: ("true or false", lambda v: isinstance(v, bool)),
+    int: ("a whole number", lambda v: _is_number(v) and isinstance(v, int)),
+    float: ("a number", lambda v: _is_number(v) and math.isfinite(v)),
+    str: ("a string", lambda v: isinstance(v, str)),
+    tuple[str, ...]: ("a list of strings",
+                      lambda v: isinstance(v, list) and all(isinstance(x, str) for x in v)),
+}
+
+
+def _of_type(name: str, value: Any, hint: Any) -> Any:
+    """`value` of config field `name` as its type `hint`, or one line saying what it must be."""
+    what, fits = _JSON_TYPES[hint]
+    if not fits(value):
+        raise InputError(f"training configuration: {name} must be {what}, got {repr(value)[:40]}")
+    return tuple(value) if hint == tuple[str, ...] else float(value) if hint is float else value
 
 
 def best_of(split: str) -> str:
