@@ -1,5 +1,6 @@
 """Reading JSON that may come from a stranger: its size and nesting depth are bounded before it is
-parsed, so a file of 100,000 nested brackets is a one-line error, not a RecursionError.
+parsed, so a file of 100,000 nested brackets is a one-line error, not a RecursionError; its numbers
+are finite and its integers at most MAX_DIGITS long (10^400 overflowed the floats it meets later).
 
 Every JSON read of odms-data (arguments, store attributes, zarr.json, run configs, manifests,
 leaderboard entries) goes through `loads` or `load_file`; the caller names the error type.
@@ -8,6 +9,7 @@ leaderboard entries) goes through `loads` or `load_file`; the caller names the e
 from __future__ import annotations
 
 import json
+import math
 import re
 from pathlib import Path
 from typing import Any
@@ -18,6 +20,7 @@ from .errors import InputError, OdmsError
 
 MAX_DEPTH = 64  # the deepest JSON odms-data writes is 4 levels
 MAX_BYTES = 64 * 2**20  # store attributes with a long oddity list stay far below
+MAX_DIGITS = 20  # of an integer: 2^64 - 1, the largest seed, has 20
 _STRING = re.compile(rb'"(?:[^"\\]|\\.)*"', re.S)
 _OPEN, _CLOSE = np.frombuffer(b"[{", np.uint8), np.frombuffer(b"]}", np.uint8)
 
@@ -38,9 +41,26 @@ def loads(text: str | bytes, where: str, error: type[OdmsError] = InputError,
     if depth(raw) > MAX_DEPTH:
         raise error(f"{where}: JSON nested deeper than {MAX_DEPTH} levels")
     try:
-        return json.loads(raw)
-    except ValueError as e:  # UnicodeDecodeError included
+        return json.loads(raw, parse_int=_integer, parse_float=_finite, parse_constant=_no_constant)
+    except ValueError as e:  # UnicodeDecodeError and the three above's included
         raise error(f"{where}: not valid JSON ({e})") from None
+
+
+def _integer(text: str) -> int:
+    if len(text.lstrip("-")) > MAX_DIGITS:
+        raise ValueError(f"an integer of {len(text.lstrip('-'))} digits, more than {MAX_DIGITS}")
+    return int(text)
+
+
+def _finite(text: str) -> float:
+    x = float(text)
+    if not math.isfinite(x):
+        raise ValueError(f"the number {text[:24]} is too large")
+    return x
+
+
+def _no_constant(name: str) -> float:
+    raise ValueError(f"{name} is not a JSON number")
 
 
 def load_file(path: str | Path, error: type[OdmsError] = InputError, max_bytes: int = MAX_BYTES) -> Any:

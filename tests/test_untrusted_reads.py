@@ -151,6 +151,22 @@ def test_json_everywhere_is_depth_bounded(tmp_path):
     assert not (tmp_path / "g.zarr").exists()
 
 
+def test_json_numbers_everywhere_are_finite_and_bounded(tmp_path):
+    """A 401-digit integer overflowed the float a leaderboard cell takes (OverflowError, exit 3);
+    every JSON reader now refuses it, and 1e400, naming the file."""
+    entry = json.loads((Path(__file__).parents[1] / "leaderboard" / "box_ls.json").read_text())
+    split = next(iter(entry["results"].values()))
+    next(iter(split.values()))["percent"] = "HUGE"
+    (tmp_path / "board").mkdir()
+    (tmp_path / "board" / "e.json").write_text(json.dumps(entry).replace('"HUGE"', "1" + "0" * 400))
+    store = make_valid(tmp_path / "s.zarr")
+    meta = (store / "zarr.json").read_text()
+    (store / "zarr.json").write_text(meta.replace('"attributes": {', '"attributes": {"x": 1e400, ', 1))
+    results = run_limited(tmp_path, [["leaderboard", "--dir", "board"], ["info", "s.zarr"]])
+    assert_refused(results[0], "leaderboard", "an integer of 401 digits, more than 20")
+    assert_refused(results[1], "info", "the number 1e400 is too large")
+
+
 def test_a_run_folder_is_checked_before_anything_is_built(tmp_path):
     import torch
 
