@@ -32,7 +32,7 @@ import sys
 import threading
 from collections import deque
 from collections.abc import Callable, Generator, Iterable
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor
 from itertools import islice
 from typing import Any, TypeVar
 
@@ -173,3 +173,11 @@ def ordered_map(
     finally:
         if pending:
             abandon(list(pending))
+
+
+def pool_map(pool: ProcessPoolExecutor, fn: Callable[[Item], Result], items: Iterable[Item],
+             ahead: int) -> Generator[Result, None, None]:
+    """`fn(item)` on `pool` for every item, in item order, at most `ahead` in flight (`ordered_map`);
+    stopped early, the pool ends (`end_pool`)."""
+    return ordered_map(lambda item: pool.submit(fn, item), Future.result, items, ahead,
+                       lambda _: end_pool(pool))

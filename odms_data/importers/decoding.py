@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 import sys
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor
 from contextlib import AbstractContextManager, contextmanager
 from dataclasses import dataclass, field
 from typing import TypeVar
@@ -19,7 +19,7 @@ from typing import TypeVar
 import numpy as np
 
 from ..errors import InputError
-from ..parallel import cores, end_pool, ordered_map, worker_pool
+from ..parallel import cores, end_pool, pool_map, worker_pool
 from ..store.digest import frame_digests
 from ..store.masks import FrameStats, pack, packed_width
 from ..store.shard_writer import MaskSink
@@ -121,7 +121,7 @@ class Workers:
     @contextmanager
     def map(self, fn: Callable[[Item], Result], items: Iterable[Item]) -> Iterator[Iterator[Result]]:
         """`fn(item)` for every item (a picklable top-level function), results in item order. Left
-        early, the pool ends (parallel.end_pool): items not started are cancelled and running ones
+        early, the pool ends (parallel.pool_map): items not started are cancelled and running ones
         awaited, so that no worker writes into a store being removed."""
         if self.pool is None:
             def serial() -> Iterator[Result]:
@@ -132,9 +132,7 @@ class Workers:
 
             yield serial()
             return
-        pool = self.pool
-        results = ordered_map(lambda t: pool.submit(fn, t), Future.result, items, 2 * self.n,
-                              lambda _: end_pool(pool))
+        results = pool_map(self.pool, fn, items, 2 * self.n)
         try:
             yield results
         finally:

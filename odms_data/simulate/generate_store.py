@@ -9,7 +9,6 @@ shard size.
 from __future__ import annotations
 
 from collections.abc import Callable, Generator, Iterable, Iterator
-from concurrent.futures import Future
 from contextlib import closing
 from dataclasses import dataclass
 from typing import Any
@@ -17,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
-from ..parallel import cores, end_pool, ordered_map, worker_pool, workers_for
+from ..parallel import cores, pool_map, worker_pool, workers_for
 from ..store.digest import StoreDigest
 from ..store.format import StoreAttrs
 from ..store.manifests import SplitManifest, load_manifest
@@ -75,8 +74,7 @@ def _run_local(tasks: Iterable[ShardTask], workers: int) -> Iterator[ShardResult
         yield from map(run, tasks)
         return
     with worker_pool(workers) as pool:
-        yield from ordered_map(lambda t: pool.submit(run, t), Future.result, tasks, 2 * workers,
-                               lambda _: end_pool(pool))
+        yield from pool_map(pool, run, tasks, 2 * workers)
 
 
 def generate(
