@@ -47,8 +47,9 @@ def loads(text: str | bytes, where: str, error: type[OdmsError] = InputError,
 
 
 def _integer(text: str) -> int:
-    if len(text.lstrip("-")) > MAX_DIGITS:
-        raise ValueError(f"an integer of {len(text.lstrip('-'))} digits, more than {MAX_DIGITS}")
+    digits = len(text) - text.startswith("-")
+    if digits > MAX_DIGITS:
+        raise ValueError(f"an integer of {digits} digits, more than {MAX_DIGITS}")
     return int(text)
 
 

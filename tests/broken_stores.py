@@ -4,6 +4,7 @@ directly (as a bug, a disk or a hand would): what every command must refuse with
 from __future__ import annotations
 
 import json
+import re
 import shutil
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -299,9 +300,8 @@ def _empty_chunk_side(path: Path) -> None:
 def _h5_chunk_indexes_damaged(path: Path) -> None:
     """The signature of every chunk B-tree node (version 1 "TREE", node type 1) damaged."""
     raw = bytearray(path.read_bytes())
-    nodes = [at for at in range(len(raw)) if raw[at:at + 4] == b"TREE" and raw[at + 4] == 1]
-    for at in nodes:
-        raw[at] ^= 0xFF
+    for node in re.finditer(rb"TREE\x01", raw):
+        raw[node.start()] ^= 0xFF
     path.write_bytes(bytes(raw))
 
 

@@ -119,11 +119,12 @@ def _zarr_problems(backend: Any, name: str, arr: Any) -> list[str]:
         return [f"array '{name}' uses codec(s) {', '.join(sorted(codecs - ZARR_CODECS))}, which "
                 "odms-data does not write"]
     grid_chunks = tuple(arr.metadata.chunk_grid.chunk_shape)  # the shards, where sharded
-    empty = next((c for c in (grid_chunks, tuple(arr.chunks)) if min(c, default=1) < 1), None)
+    chunks = tuple(arr.chunks)
+    empty = next((c for c in (grid_chunks, chunks) if min(c, default=1) < 1), None)
     if empty is not None:  # zarr opens it; the grid below divides by it
         return [f"array '{name}' declares chunks of shape {empty}, with an empty side (a damaged store)"]
-    problems = _chunk_problems(name, arr, tuple(arr.chunks))
-    index_bytes = 16 * math.prod(_grid(grid_chunks, tuple(arr.chunks)))
+    problems = _chunk_problems(name, arr, chunks)
+    index_bytes = 16 * math.prod(_grid(grid_chunks, chunks))
     if index_bytes > MAX_CHUNK_BYTES:
         problems.append(f"array '{name}' has shard indexes of {index_bytes} bytes, more than the "
                         f"{MAX_CHUNK_BYTES} odms-data reads")
