@@ -108,6 +108,16 @@ def test_a_ctrl_c_with_pythons_own_handler_waits_for_the_write_in_progress():
         signal.signal(signal.SIGINT, previous)
 
 
+RUN = outputs.Kind("run", lambda p: None)
+
+
+def _old_output(tmp_path):
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "old").write_text("the old output")
+    return out
+
+
 @pytest.fixture
 def stop_from_another_thread(monkeypatch):
     """`stop_after(name, call)`: a SIGTERM, handled as the command line handles it, comes right
@@ -142,9 +152,7 @@ def test_a_stop_as_a_sibling_is_made_leaves_no_sibling(tmp_path, stop_from_anoth
     """Each sibling of an output (the lock, `.partial`, the `.replaced` holding the old output) is
     removed again by a stop that comes right after it is made: the stop waits until its removal is
     set, or until the output is in place."""
-    out = tmp_path / "run"
-    out.mkdir()
-    (out / "old").write_text("the old output")
+    out = _old_output(tmp_path)
     stop_from_another_thread(step, call)
     with pytest.raises(Interrupted), atomic_folder(out, RUN, overwrite=True) as new:
         (new / "new").write_text("the new output")
@@ -160,8 +168,6 @@ def test_a_store_writer_stopped_as_its_partial_store_is_made_leaves_nothing(
         pass
     assert list(tmp_path.iterdir()) == []
 
-
-RUN = outputs.Kind("run", lambda p: None)
 
 KILLED_BETWEEN_THE_RENAMES = """
 import os, signal, sys
@@ -180,13 +186,6 @@ os.rename = killed_at_the_second
 with outputs.atomic_folder(out, outputs.Kind("run", lambda p: None), overwrite=True) as new:
     (new / "new").write_text("the new output")
 """
-
-
-def _old_output(tmp_path):
-    out = tmp_path / "run"
-    out.mkdir()
-    (out / "old").write_text("the old output")
-    return out
 
 
 def test_an_old_output_set_aside_by_a_killed_commit_is_put_back(tmp_path):
