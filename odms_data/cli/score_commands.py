@@ -15,7 +15,7 @@ from ..evaluation.ground_truth import (
 )
 from ..evaluation.vosde import DEFAULT_N_OBS
 from ..outputs import check_replaceable, write_text
-from ..protocol import FAMILIES
+from ..protocol import SPLIT_FAMILIES
 from . import echo_json, echo_text
 from .progress import Bars, progress
 
@@ -179,7 +179,7 @@ def _baseline(stores, data, output, overwrite, as_json, name, method, settings, 
 
 
 @click.command()
-@click.option("--family", type=click.Choice(FAMILIES), default="test", show_default=True,
+@click.option("--family", type=click.Choice(SPLIT_FAMILIES), default="test", show_default=True,
               help="Which sets to show.")
 @click.option("--metric", type=click.Choice(["percent", "abs"]), default="percent", show_default=True,
               help="Mean percent error or mean absolute error (cm; driving in m).")

@@ -20,37 +20,15 @@ from typing import Any
 from .. import safe_json
 from .._version import __version__
 from ..errors import InputError
-from ..protocol import ABS_UNITS, FAMILIES, OFFICIAL_DOMAINS, official_name
+from ..protocol import BENCHMARKS as PROTOCOL_BENCHMARKS
+from ..protocol import SPLIT_FAMILIES
 from ..resources import resource_dir
 from ..shown_text import markdown_link, markdown_text
 from .scoring import ScoreReport
 
-
-@dataclass(frozen=True)
-class Benchmark:
-    """A benchmark's table: its title, its sets (domains) in order, the unit of their absolute
-    errors, and how a split of it is named (`split(domain, family)`)."""
-
-    title: str
-    domains: tuple[str, ...]
-    abs_units: dict[str, str]
-    prefix: str  # split names: <prefix><domain, "_" as "-">-<family>; "" for ODMS's own
-    decimals: int  # as the benchmark's papers print them
-
-    def split_of(self, split: str, domain: str) -> tuple[str, str] | None:
-        """(domain, family) when `split` is a split of this benchmark."""
-        if not self.prefix:
-            return official_name(split, domain)
-        name, _, fam = split.rpartition("-")
-        d = name.removeprefix(self.prefix).replace("-", "_")
-        return (d, fam) if name.startswith(self.prefix) and d in self.domains and fam in FAMILIES else None
-
-
-ODMD_DOMAINS = ("normal", "perturb_motion", "perturb_detection", "robot")
-BENCHMARKS = {
-    "odms": Benchmark("ODMS", OFFICIAL_DOMAINS, ABS_UNITS, "", 1),
-    "odmd": Benchmark("ODMD", ODMD_DOMAINS, dict.fromkeys(ODMD_DOMAINS, "cm"), "odmd-", 2),
-}
+# the benchmarks with a table of their own (protocol.py's records); ODMS-detection's figures sit
+# in ODMS's table
+BENCHMARKS = {k: PROTOCOL_BENCHMARKS[k] for k in ("odms", "odmd")}
 
 
 @cache
@@ -141,12 +119,9 @@ def load_entries(folder: Path | None = None, benchmark: str = "odms") -> list[Le
 def family_all(entry: LeaderboardEntry, family: str) -> float | None:
     """The entry's All for `family`: as printed, else the mean of the four percent errors."""
     fam = entry.results.get(family, {})
-    domains = BENCHMARKS[entry.benchmark].domains
     if "all" in fam:
         return fam["all"]
-    if all(d in fam for d in domains):
-        return sum(fam[d]["percent"] for d in domains) / len(domains)
-    return None
+    return BENCHMARKS[entry.benchmark].all_of({d: v["percent"] for d, v in fam.items()})
 
 
 def _cell(x: float | None, decimals: int = 1) -> str:
@@ -155,8 +130,8 @@ def _cell(x: float | None, decimals: int = 1) -> str:
 
 def ranked(entries: list[LeaderboardEntry], family: str = "test") -> list[LeaderboardEntry]:
     """The entries with results on `family`, sorted by All (lowest first; entries without All last)."""
-    if family not in FAMILIES:
-        raise InputError(f"family must be one of {', '.join(FAMILIES)}, got {family!r}")
+    if family not in SPLIT_FAMILIES:
+        raise InputError(f"family must be one of {', '.join(SPLIT_FAMILIES)}, got {family!r}")
 
     def key(e):
         a = family_all(e, family)
@@ -170,7 +145,7 @@ def render_markdown(entries: list[LeaderboardEntry], family: str = "test", metri
     """A markdown table of the entries on `benchmark`, sorted by All (lowest first; entries
     without All last)."""
     b = BENCHMARKS[benchmark]
-    domains, units = b.domains, b.abs_units
+    domains, units = b.domains, b.units
     entries = [e for e in entries if e.benchmark == benchmark]
     if metric == "percent":
         heads = [d.replace("_", " ").capitalize() for d in domains] + ["All"]
@@ -234,11 +209,9 @@ def entry_from_report(
             f"{report.predictions}: no official split (robot/driving/normal/perturb-val/test, or ODMD's "
             "odmd-normal-val ...) was scored; a leaderboard entry needs at least one"
         )
-    for fam, value in report.all.items() if benchmark == "odms" else ():
-        results[fam]["all"] = round(value, 4)
-    for sets in results.values() if benchmark != "odms" else ():
-        if all(d in sets for d in BENCHMARKS[benchmark].domains):  # ODMD's All: the mean of its four
-            sets["all"] = round(sum(sets[d]["percent"] for d in ODMD_DOMAINS) / len(ODMD_DOMAINS), 4)
+    for a in report.alls:
+        if a.benchmark == benchmark:
+            results[a.family]["all"] = round(a.mean_percent_error, 4)
     return LeaderboardEntry(
         name=name, method=method or name, n_obs=n_obs, training_data=None,
         radial_input=None, figures="computed", citation=citation, link=link,

@@ -1,8 +1,9 @@
 """The ODMS metrics, as pure functions of aligned prediction and label arrays (metres).
 
 Per split: n, mean percent error `|d1 - d1_hat| / d1 * 100`, median percent error and mean
-absolute error. "All" of a family (val or test) is the unweighted mean of the robot, driving,
-normal and perturb mean percent errors, given only when all four are scored in full.
+absolute error. A benchmark's "All" of a family (val or test) is formed as its record in
+protocol.py says (the unweighted mean of its sets' means), given only when every one of its sets
+is scored in full.
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import StoreError
-from ..protocol import ABS_UNITS, FAMILIES, OFFICIAL_DOMAINS, official_name
+from ..protocol import BENCHMARKS, SPLIT_FAMILIES, benchmark_of
 
 
 def percent_errors(pred: np.ndarray, truth: np.ndarray) -> np.ndarray:
@@ -37,8 +38,10 @@ class SplitScore:
 
     @property
     def abs_unit(self) -> str:
-        """The unit the paper prints absolute errors in: m for driving, cm otherwise."""
-        return ABS_UNITS.get(self.domain, "cm")
+        """The unit the benchmark's paper prints absolute errors in (ODMS: m for driving); a split
+        of no benchmark takes its domain's unit in ODMS (cm when ODMS has no such domain)."""
+        found = benchmark_of(self.split, self.domain)
+        return found[0].units[found[1]] if found else BENCHMARKS["odms"].units.get(self.domain, "cm")
 
     @property
     def mean_abs_error(self) -> float:
@@ -60,12 +63,37 @@ def score_split(split: str, domain: str, pred: np.ndarray, truth: np.ndarray, to
         )
 
 
-def all_by_family(scores: list[SplitScore]) -> dict[str, float]:
-    """{family: All} for each family whose four official splits are all scored in full."""
-    full = {official_name(s.split, s.domain): s for s in scores if not s.partial}
-    out = {}
-    for fam in FAMILIES:
-        parts = [full[(d, fam)] for d in OFFICIAL_DOMAINS if (d, fam) in full]
-        if len(parts) == len(OFFICIAL_DOMAINS):
-            out[fam] = float(np.mean([p.mean_percent_error for p in parts]))
+@dataclass
+class AllScore:
+    """A benchmark's All over one family: its sets' splits and the figure its record's rule gives."""
+
+    benchmark: str  # the record's key in protocol.BENCHMARKS
+    family: str
+    splits: tuple[str, ...]
+    mean_percent_error: float
+
+    @property
+    def title(self) -> str:
+        return BENCHMARKS[self.benchmark].title
+
+
+def all_scores(scores: list[SplitScore]) -> list[AllScore]:
+    """Every benchmark's All for each family whose sets are all scored in full."""
+    full: dict[tuple[str, str], dict[str, SplitScore]] = {}
+    for s in scores:
+        found = benchmark_of(s.split, s.domain)
+        if found and not s.partial:
+            full.setdefault((found[0].key, found[2]), {})[found[1]] = s
+    out = []
+    for key, b in BENCHMARKS.items():
+        for fam in SPLIT_FAMILIES:
+            sets = full.get((key, fam), {})
+            value = b.all_of({d: s.mean_percent_error for d, s in sets.items()})
+            if value is not None:
+                out.append(AllScore(key, fam, tuple(sets[d].split for d in b.all_sets), value))
     return out
+
+
+def all_by_family(scores: list[SplitScore]) -> dict[str, float]:
+    """{family: All} of ODMS, for each family whose four splits are all scored in full."""
+    return {a.family: a.mean_percent_error for a in all_scores(scores) if a.benchmark == "odms"}

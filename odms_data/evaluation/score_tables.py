@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from ..protocol import FAMILIES
+from ..protocol import BENCHMARKS
+from .metrics import AllScore
 from .scoring import ScoreReport
 
 
@@ -18,9 +19,14 @@ def _banner(report: ScoreReport) -> list[str]:
     ]
 
 
+def _all_name(a: AllScore) -> str:
+    """ODMS's All keeps its name, "All (test)"; another benchmark's says whose it is."""
+    return f"All ({a.family})" if a.benchmark == "odms" else f"{a.title} All ({a.family})"
+
+
 def _footer(report: ScoreReport) -> list[str]:
-    out = [f"All ({fam}) = {report.all[fam]:.2f}  (mean of robot, driving, normal, perturb percent errors)"
-           for fam in FAMILIES if fam in report.all]
+    out = [f"{_all_name(a)} = {a.mean_percent_error:.2f}  "
+           f"(mean of {', '.join(BENCHMARKS[a.benchmark].all_sets)} percent errors)" for a in report.alls]
     if report.unlabelled_ignored:
         out.append(f"{report.unlabelled_ignored} predictions for unlabelled examples were ignored")
     return out
@@ -47,9 +53,26 @@ def report_markdown(report: ScoreReport) -> str:
         n = f"{s.n}/{s.total}" if s.partial else str(s.n)
         lines.append(f"| {s.split} | {n} | {s.mean_percent_error:.2f} | {s.median_percent_error:.2f} | "
                      f"{s.mean_abs_error:.2f} {s.abs_unit} |")
-    for fam in FAMILIES:
-        if fam in report.all:
-            lines.append(f"| **All ({fam})** | | **{report.all[fam]:.2f}** | | |")
+    for a in report.alls:
+        lines.append(f"| **{_all_name(a)}** | | **{a.mean_percent_error:.2f}** | | |")
     if report.unlabelled_ignored:
         lines += ["", f"{report.unlabelled_ignored} predictions for unlabelled examples were ignored."]
     return "\n".join(lines) + "\n"
+
+
+def benchmarks_markdown() -> str:
+    """The benchmarks' records (protocol.BENCHMARKS) as markdown tables: docs/SCORING.md shows them."""
+    lines = []
+    for b in BENCHMARKS.values():
+        lines += [f"**{b.title}** (`{b.key}`): All = the mean of the {len(b.all_sets)} per-set means; "
+                  f"published baselines: {', '.join(b.baselines)}.", "",
+                  "| set | val split | n | test split | n | abs. error in | depth bins (m) "
+                  "| motion bins (m) |",
+                  "|---|---|---:|---|---:|---|---|---|"]
+        for d in b.domains:
+            val, test = b.split(d, "val"), b.split(d, "test")
+            bins = [", ".join(f"{e:g}" for e in edges) for edges in (b.depth_bins[d], b.motion_bins[d])]
+            lines.append(f"| {d} | {val} | {b.counts[val]:,} | {test} | {b.counts[test]:,} | {b.units[d]} | "
+                         f"{bins[0]} | {bins[1]} |")
+        lines.append("")
+    return "\n".join(lines)

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..protocol import split_order
 from .ground_truth import SplitTruth
-from .metrics import SplitScore, all_by_family, percent_errors, score_split
+from .metrics import AllScore, SplitScore, all_scores, percent_errors, score_split
 from .predictions import Predictions, check_against
 
 
@@ -20,11 +20,16 @@ class ScoreReport:
     predictions: str
     rows: int
     scores: list[SplitScore]
-    all: dict[str, float]
+    alls: list[AllScore]  # every benchmark's All whose sets are all scored in full
     partial: bool
     unlabelled_ignored: int = 0
     digests: dict[str, str] = field(default_factory=dict)  # split -> store digest
     errors: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict, repr=False)
+
+    @property
+    def all(self) -> dict[str, float]:
+        """ODMS's All by family (the `all` of the JSON report)."""
+        return {a.family: a.mean_percent_error for a in self.alls if a.benchmark == "odms"}
 
     def to_json(self) -> dict:
         return {
@@ -36,6 +41,11 @@ class ScoreReport:
                 for s in self.scores
             ],
             "all": self.all,
+            "benchmark_alls": [
+                {"benchmark": a.benchmark, "title": a.title, "family": a.family, "splits": list(a.splits),
+                 "mean_percent_error": a.mean_percent_error}
+                for a in self.alls
+            ],
         }
 
 
@@ -64,7 +74,7 @@ def score(preds: Predictions, truths: dict[str, SplitTruth], *, allow_partial: b
         scores.append(s)
         errors[split] = (truth[keep], percent_errors(pred, truth[keep]))
     return ScoreReport(
-        predictions=preds.path, rows=len(f), scores=scores, all=all_by_family(scores),
+        predictions=preds.path, rows=len(f), scores=scores, alls=all_scores(scores),
         partial=any(s.partial for s in scores), unlabelled_ignored=ignored,
         digests={s.split: truths[s.split].digest for s in scores}, errors=errors,
     )

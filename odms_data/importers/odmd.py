@@ -20,6 +20,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..paths import inside
+from ..protocol import BENCHMARKS, SPLIT_FAMILIES
 from ..store.box_store import BoxRows
 from ..store.format import StoreAttrs, store_path
 from ..store.manifests import check_against_manifest, load_manifest, split_names
@@ -29,14 +30,12 @@ from .plan import BoxPlan
 from .result import ImportResult
 
 MAX_POSITIONS = 1000  # ODMD's sets have 10
-_ODMD = {"normal": "normal", "perturb-motion": "perturb_motion", "perturb-detection": "perturb_detection",
-         "robot": "robot"}
-_ODMS = ("robot", "driving", "normal", "perturb")
-# split -> (its pickle under data/, its domain)
+# split -> (its pickle under data/, its store's domain): ODMD's sets, then its conversion of ODMS's
 ODMD_SETS: dict[str, tuple[str, str]] = {
-    **{f"odmd-{k}-{f}": (f"odmd/{f}/{f}_{v}.pk", "odmd") for f in ("val", "test") for k, v in _ODMD.items()},
-    **{f"odms-detect-{d}-{f}": (f"odms_detection/{f}/{f}_odms_detect_{d}.pk", d)
-       for f in ("val", "test") for d in _ODMS},
+    **{BENCHMARKS["odmd"].split(d, f): (f"odmd/{f}/{f}_{d}.pk", "odmd")
+       for f in SPLIT_FAMILIES for d in BENCHMARKS["odmd"].domains},
+    **{BENCHMARKS["odms-detection"].split(d, f): (f"odms_detection/{f}/{f}_odms_detect_{d}.pk", d)
+       for f in SPLIT_FAMILIES for d in BENCHMARKS["odms-detection"].domains},
 }
 SOURCE = "griffbr/ODMD data/"
 

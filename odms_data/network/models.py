@@ -125,8 +125,8 @@ class DBoxModel(Model):
         return dbox.load_pretrained(path, self.config.n_obs)
 
 
-FAMILIES: dict[str, type[Model]] = {"odn": OdnModel, "dbox": DBoxModel}
+MODEL_CLASSES: dict[str, type[Model]] = {"odn": OdnModel, "dbox": DBoxModel}
 
 
 def model_of(config: TrainConfig) -> Model:
-    return FAMILIES[variant(config.model).family](config)
+    return MODEL_CLASSES[variant(config.model).family](config)

@@ -15,6 +15,7 @@ from click.testing import CliRunner
 from odms_data.cli import main
 from odms_data.cli.import_commands import odmd as odmd_command
 from odms_data.importers.odmd import ODMD_SETS
+from odms_data.protocol import BENCHMARKS
 from odms_data.store.reader import open_store
 
 PUBLISHED_TEST = {"odmd-normal-test": 0.00, "odmd-perturb-motion-test": 4.47,
@@ -108,3 +109,16 @@ def test_odmds_test_sets_import_verified_and_give_the_published_box_ls(tmp_path,
         got[split] = json.loads(res.stdout)["splits"][0]["mean_percent_error"]
     assert {s: round(v, 2) for s, v in got.items()} == PUBLISHED_TEST
     assert round(sum(got.values()) / 4, 2) == 11.83
+    # all four at once: score gives ODMD's All, the mean of the unrounded per-set means (published
+    # 11.83, the mean of the rounded figures)
+    stores = [str(tmp_path / "s" / f"{split}.zarr") for split in PUBLISHED_TEST]
+    res = run.invoke(main, ["baseline", "box-ls", *stores, "-o", str(tmp_path / "all.csv")])
+    assert res.exit_code == 0, res.output
+    res = run.invoke(main, ["score", str(tmp_path / "all.csv"), "--data", str(tmp_path / "s"), "--json"])
+    alls = json.loads(res.stdout)["benchmark_alls"]
+    assert [(a["benchmark"], a["family"]) for a in alls] == [("odmd", "test")]
+    value = alls[0]["mean_percent_error"]
+    assert value == pytest.approx(sum(got.values()) / 4, abs=1e-12) and abs(value - 11.83) < 0.01
+    assert alls[0]["splits"] == list(BENCHMARKS["odmd"].splits("test"))
+    res = run.invoke(main, ["score", str(tmp_path / "all.csv"), "--data", str(tmp_path / "s")])
+    assert f"ODMD All (test) = {value:.2f}" in res.output, res.output
