@@ -9,6 +9,7 @@ Sources: Griffin & Corso, ECCV 2020 (ODMS and its appendix tables), Griffin & Co
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
@@ -16,6 +17,7 @@ import numpy as np
 
 from .errors import InputError
 
+GENERATED = "generated"  # the domain of a generated store
 SPLIT_FAMILIES = ("val", "test")  # every benchmark's two families of sets, in this order
 ALL_RULE = "the unweighted mean of the per-set means"  # how every benchmark forms its All
 
@@ -131,6 +133,28 @@ def benchmark_of(split: str, domain: str) -> tuple[Benchmark, str, str] | None:
         if found:
             return (b, *found)
     return None
+
+
+def _match(pattern: str | None, source: str) -> str | None:
+    found = re.search(pattern, source) if pattern else None
+    return found.group(0) if found else None
+
+
+def sequence_of(split: str, domain: str, source: str) -> str | None:
+    """The recorded sequence an example of `split` comes from, by its recorded source: a benchmark
+    set's pattern picks it (the whole source where the set has none); a generated example has
+    none (None: it stands alone), nor has an example without a source."""
+    if domain == GENERATED or not source:
+        return None
+    found = benchmark_of(split, domain)
+    pattern = found[0].sequence_patterns.get(found[1]) if found else None
+    return _match(pattern, source) or source if pattern else source
+
+
+def object_of(split: str, domain: str, source: str) -> str | None:
+    """The object an example shows, where its benchmark set's source names one (ODMS's robot sets)."""
+    found = benchmark_of(split, domain)
+    return _match(found[0].object_patterns.get(found[1]), source) if found else None
 
 
 def official_name(split: str, domain: str) -> tuple[str, str] | None:

@@ -30,6 +30,11 @@ DATA_HELP = (f"Folder of ground-truth stores, or one store (repeatable). Default
 @click.option("--markdown", is_flag=True, help="Print the scores as a markdown table.")
 @click.option("--allow-partial", is_flag=True,
               help="Score only the examples present (local use; flagged loudly, no All, no entry).")
+@click.option("--metrics", "with_metrics", is_flag=True,
+              help="Also show AbsRel, SqRel, RMSE, RMSE log, the delta shares, the shares within 5/10/25 % "
+                   "and the 90th/95th percentiles of percent error (always in --json; docs/SCORING.md).")
+@click.option("--ci", is_flag=True,
+              help="Also show each mean's 95 % interval (cluster bootstrap; always in --json).")
 @click.option("--plot", type=click.Path(), help="Also draw percent error against true depth to this PNG.")
 @click.option("--entry", type=click.Path(), help="Also write a leaderboard entry (JSON) to this file.")
 @click.option("--name", help="Method name for --entry.")
@@ -37,17 +42,19 @@ DATA_HELP = (f"Folder of ground-truth stores, or one store (repeatable). Default
 @click.option("--link", help="Link (http/https) for --entry.")
 @click.option("--n-obs", type=click.IntRange(min=2), help="Observations per example used (for --entry).")
 @click.option("--overwrite", is_flag=True, help="Replace existing --plot and --entry files.")
-def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name, citation, link, n_obs,
-          overwrite):
+def score(predictions, data, as_json, markdown, allow_partial, with_metrics, ci, plot, entry, name, citation,
+          link, n_obs, overwrite):
     """Score a predictions file (schemas/PREDICTIONS.md) against the ground-truth stores.
 
-    Per split: n, mean and median percent error, mean absolute error; All per family (val,
-    test) when robot, driving, normal and perturb are all scored in full. Exit code 2 with a
+    Per split: n, mean and median percent error, mean absolute error; each benchmark's All per
+    family (val, test) when all its sets (ODMS: robot, driving, normal, perturb) are scored in
+    full. --json adds the depth metrics and every mean's 95 % interval. Exit code 2 with a
     one-line message when the file is malformed or does not cover its splits.
 
     \b
     Examples:
       odms-data score preds.csv --data ./odms-stores
+      odms-data score preds.csv --metrics --ci
       odms-data score preds.csv --markdown --plot errors.png
       odms-data score preds.csv --name MyNet --entry leaderboard/mynet.json
     """
@@ -76,9 +83,9 @@ def score(predictions, data, as_json, markdown, allow_partial, plot, entry, name
     if as_json:
         echo_json(report.to_json())
     elif markdown:
-        echo_text(report_markdown(report), nl=False)
+        echo_text(report_markdown(report, metrics=with_metrics, ci=ci), nl=False)
     else:
-        echo_text(render_text(report), nl=False)
+        echo_text(render_text(report, metrics=with_metrics, ci=ci), nl=False)
     if plot:
         from ..evaluation.error_plots import plot_errors
 

@@ -56,16 +56,16 @@ class Evaluation:
 
     def score(
         self, predictions: str | Path, *, allow_partial: bool = False, verify: bool = False,
-        progress: Callable[[str, int, int], None] | None = None,
+        progress: Callable[[str, int, int], None] | None = None, intervals: bool = True,
     ) -> tuple[Predictions, ScoreReport]:
         """The predictions file as read, and its score against the stores of the data folders.
         With `verify` (what a leaderboard entry needs) a complete score's stores are checked
         against their digests and manifests first (verify_truth), with `progress(split, frames
-        done, frames total)`."""
+        done, frames total)`. `intervals`: each mean's and All's 95 % interval (scoring.score)."""
         stores = find_stores(data_locations(self.data))
         truths = {split: load_truth(path) for split, path in stores.items()}
         preds = read_predictions(predictions, max_rows=sum(len(t.example_ids) for t in truths.values()))
-        report = score(preds, truths, allow_partial=allow_partial)
+        report = score(preds, truths, allow_partial=allow_partial, intervals=intervals)
         if verify and not report.partial:
             for split in sorted(report.digests):
                 verify_truth(truths[split], progress)

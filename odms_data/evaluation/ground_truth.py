@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -99,6 +99,10 @@ class SplitTruth:
     digest: str
     example_ids: list[str]
     d1: np.ndarray  # (E,) m, NaN when unlabelled
+    sources: list[str] = field(default_factory=list)  # (E,) each example's recorded source
+    n_obs: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # (E,) frames
+    window: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # (E,) frames spanned
+    motion: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (E,) camera travel, m
 
     @property
     def labelled_ids(self) -> list[str]:
@@ -107,10 +111,18 @@ class SplitTruth:
 
 
 def load_truth(path: Location) -> SplitTruth:
-    """The ids and labels of the store at `path` (no masks are read)."""
+    """The ids and labels of the store at `path`, and what the breakdowns group its examples by:
+    source, observations, frames spanned and the camera's travel (no masks are read)."""
     with open_store(str(path)) as s:  # the reader refuses ids that are not unique or lack '<split>/'
-        ids, d1 = s.example_ids, s.d1
-        return SplitTruth(s.attrs.split, s.attrs.domain, str(path), s.attrs.digest, ids, d1)
+        ids, d1, fi, n_obs = s.example_ids, s.d1, s.frame_index, s.n_obs
+        rows = np.arange(len(fi))
+        first, last = fi[:, 0], fi[rows, np.maximum(n_obs - 1, 0)]
+        if s.kind == "boxes":  # a box store's movement runs from each frame to the example's last
+            motion = np.linalg.norm(s.move[first], axis=1) if len(fi) else np.zeros(0)
+        else:
+            motion = np.abs(s.z[last] - s.z[first]) if len(fi) else np.zeros(0)
+        return SplitTruth(s.attrs.split, s.attrs.domain, str(path), s.attrs.digest, ids, d1, s.sources,
+                          n_obs, last - first + 1, motion)
 
 
 def verify_truth(truth: SplitTruth, progress: Callable[[str, int, int], None] | None = None) -> None:

@@ -1,14 +1,19 @@
 """The ODMS metrics, as pure functions of aligned prediction and label arrays (metres).
 
-Per split: n, mean percent error `|d1 - d1_hat| / d1 * 100`, median percent error and mean
-absolute error. A benchmark's "All" of a family (val or test) is formed as its record in
-protocol.py says (the unweighted mean of its sets' means), given only when every one of its sets
-is scored in full.
+Per split: n, mean percent error `|d1 - d1_hat| / d1 * 100` (the headline), median percent error
+and mean absolute error; beside them the depth metrics of Eigen et al. (AbsRel, SqRel, RMSE, RMSE
+log, the shares within δ < 1.25, 1.25², 1.25³), the shares within 5, 10 and 25 % error and the
+90th and 95th percentiles of percent error, each defined once here (formulas: docs/SCORING.md).
+Every metric but the percentiles is a function of the mean of a per-example term (`TERMS`), so
+that a resample of examples (bootstrap.py) recomputes them all from one matrix. A benchmark's
+"All" of a family (val or test) is formed as its record in protocol.py says (the unweighted
+mean of its sets' means; each metric's All likewise), given only when every one of its sets is
+scored in full.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -22,6 +27,61 @@ def percent_errors(pred: np.ndarray, truth: np.ndarray) -> np.ndarray:
         return np.abs(truth - pred) / truth * 100.0
 
 
+LOG_FLOOR_M = 1e-3  # a prediction below 1 mm counts as 1 mm in RMSE log and the δ ratios
+DELTAS = (1.25, 1.25**2, 1.25**3)
+WITHIN = (5.0, 10.0, 25.0)  # percent error thresholds, each included
+PERCENTILES = (90.0, 95.0)  # of percent error, numpy's linear interpolation
+
+
+def _terms(pred: np.ndarray, truth: np.ndarray) -> dict[str, np.ndarray]:
+    """The per-example term of every mean-based metric (a name ending in "^2" is the mean of
+    squares whose root is the metric)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        err = truth - pred
+        pe = np.abs(err) / truth * 100.0
+        floored = np.maximum(pred, LOG_FLOOR_M)
+        ratio = np.maximum(truth / floored, floored / truth)
+        return {
+            "mean_percent_error": pe, "mean_abs_error_m": np.abs(err), "abs_rel": np.abs(err) / truth,
+            "sq_rel": err * err / truth, "rmse^2": err * err,
+            "rmse_log^2": (np.log(truth) - np.log(floored)) ** 2,
+            **{f"delta{k}": (ratio < t).astype(np.float64) for k, t in enumerate(DELTAS, 1)},
+            **{f"within_{w:g}": (pe <= w).astype(np.float64) for w in WITHIN},
+        }
+
+
+TERMS = tuple(_terms(np.ones(1), np.ones(1)))  # the names, in order
+
+
+def term_matrix(pred: np.ndarray, truth: np.ndarray) -> np.ndarray:
+    """(len(TERMS), n) C-ordered: row k holds term k of every example."""
+    t = _terms(np.asarray(pred, np.float64), np.asarray(truth, np.float64))
+    return np.stack([t[name] for name in TERMS])
+
+
+def from_means(means: np.ndarray) -> dict[str, np.ndarray]:
+    """The metrics from the means of the terms (axis 0 indexes TERMS; any trailing shape)."""
+    out = {}
+    for name, m in zip(TERMS, means, strict=True):
+        if name.endswith("^2"):
+            out[name[:-2]] = np.sqrt(m)
+        else:
+            out[name] = m
+    return out
+
+
+def depth_metrics(pred: np.ndarray, truth: np.ndarray) -> dict[str, float]:
+    """Every metric but the headline three: AbsRel, SqRel, RMSE, RMSE log, δ1-3, the shares within
+    5/10/25 % and the 90th/95th percentiles of percent error."""
+    m = term_matrix(pred, truth)
+    values = {k: float(v) for k, v in from_means(m.mean(axis=1)).items()
+              if k not in ("mean_percent_error", "mean_abs_error_m")}
+    return values | {f"p{q:g}_percent": float(np.percentile(m[0], q)) for q in PERCENTILES}
+
+
+METRICS = tuple(depth_metrics(np.ones(1), np.ones(1)))  # the names of the metrics beside the headline
+
+
 @dataclass
 class SplitScore:
     split: str
@@ -31,6 +91,8 @@ class SplitScore:
     mean_percent_error: float
     median_percent_error: float
     mean_abs_error_m: float
+    metrics: dict[str, float] = field(default_factory=dict)  # depth_metrics
+    ci95: dict[str, tuple[float, float]] = field(default_factory=dict)  # mean-based metrics' intervals
 
     @property
     def partial(self) -> bool:
@@ -59,7 +121,7 @@ def score_split(split: str, domain: str, pred: np.ndarray, truth: np.ndarray, to
         return SplitScore(
             split=split, domain=domain, n=len(pe), total=total,
             mean_percent_error=float(pe.mean()), median_percent_error=float(np.median(pe)),
-            mean_abs_error_m=float(np.abs(truth - pred).mean()),
+            mean_abs_error_m=float(np.abs(truth - pred).mean()), metrics=depth_metrics(pred, truth),
         )
 
 
@@ -71,6 +133,8 @@ class AllScore:
     family: str
     splits: tuple[str, ...]
     mean_percent_error: float
+    metrics: dict[str, float] = field(default_factory=dict)  # each metric's All, by the same rule
+    ci95: dict[str, tuple[float, float]] = field(default_factory=dict)  # their intervals
 
     @property
     def title(self) -> str:
@@ -90,7 +154,10 @@ def all_scores(scores: list[SplitScore]) -> list[AllScore]:
             sets = full.get((key, fam), {})
             value = b.all_of({d: s.mean_percent_error for d, s in sets.items()})
             if value is not None:
-                out.append(AllScore(key, fam, tuple(sets[d].split for d in b.all_sets), value))
+                metrics = {m: b.all_of({d: s.metrics[m] for d, s in sets.items() if m in s.metrics})
+                           for m in METRICS}
+                out.append(AllScore(key, fam, tuple(sets[d].split for d in b.all_sets), value,
+                                    {m: v for m, v in metrics.items() if v is not None}))
     return out
 
 

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ..protocol import BENCHMARKS
-from .metrics import AllScore
+from .metrics import METRICS, AllScore
 from .scoring import ScoreReport
 
 
@@ -32,13 +32,42 @@ def _footer(report: ScoreReport) -> list[str]:
     return out
 
 
-def render_text(report: ScoreReport) -> str:
-    rows = [("split", "n", "mean %", "median %", "mean abs error")]
+# the metrics' column heads, in METRICS' order; shares are fractions, percentiles in percent
+METRIC_HEADS = {
+    "abs_rel": "AbsRel", "sq_rel": "SqRel", "rmse": "RMSE m", "rmse_log": "RMSE log", "delta1": "d<1.25",
+    "delta2": "d<1.25^2", "delta3": "d<1.25^3", "within_5": "<=5%", "within_10": "<=10%",
+    "within_25": "<=25%",
+    "p90_percent": "p90 %", "p95_percent": "p95 %",
+}
+
+
+def _ci(ci95: dict, key: str) -> str:
+    lo, hi = ci95.get(key, (None, None))
+    return "" if lo is None else f"[{lo:.2f}, {hi:.2f}]"
+
+
+def _table(report: ScoreReport, metrics: bool, ci: bool) -> list[list[str]]:
+    """The table's rows, its head first: per split, then (with metrics or ci) per All."""
+    head = ["split", "n", "mean %", *(["95% CI"] if ci else []), "median %", "mean abs error"]
+    rows = [head + ([METRIC_HEADS[m] for m in METRICS] if metrics else [])]
     for s in report.scores:
         n = f"{s.n}/{s.total}" if s.partial else str(s.n)
-        rows.append((s.split, n, f"{s.mean_percent_error:.2f}", f"{s.median_percent_error:.2f}",
-                     f"{s.mean_abs_error:.2f} {s.abs_unit}"))
-    widths = [max(len(r[i]) for r in rows) for i in range(5)]
+        interval = [_ci(s.ci95, "mean_percent_error")] if ci else []
+        rows.append([s.split, n, f"{s.mean_percent_error:.2f}", *interval, f"{s.median_percent_error:.2f}",
+                     f"{s.mean_abs_error:.2f} {s.abs_unit}",
+                     *([f"{s.metrics[m]:.3f}" for m in METRICS] if metrics else [])])
+    for a in report.alls if metrics or ci else ():
+        interval = [_ci(a.ci95, "mean_percent_error")] if ci else []
+        rows.append([_all_name(a), "", f"{a.mean_percent_error:.2f}", *interval, "", "",
+                     *([f"{a.metrics[m]:.3f}" for m in METRICS] if metrics else [])])
+    return rows
+
+
+def render_text(report: ScoreReport, *, metrics: bool = False, ci: bool = False) -> str:
+    """The plain-text table; `metrics` adds the depth metrics' columns, `ci` the 95 % interval of
+    each mean percent error (both add a row per All)."""
+    rows = _table(report, metrics, ci)
+    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
     lines = _banner(report) + [f"{report.predictions}: {report.rows} predictions"]
     for r in rows:
         lines.append("  ".join([r[0].ljust(widths[0])] + [c.rjust(w) for c, w in zip(r[1:], widths[1:],
@@ -46,15 +75,18 @@ def render_text(report: ScoreReport) -> str:
     return "\n".join(lines + _footer(report) + _banner(report)) + "\n"
 
 
-def report_markdown(report: ScoreReport) -> str:
+def report_markdown(report: ScoreReport, *, metrics: bool = False, ci: bool = False) -> str:
+    """The table in markdown, with a bold row per All."""
     lines = [f"> {b.lstrip('! ')}" for b in _banner(report)]
-    lines += ["| split | n | mean % error | median % error | mean abs error |", "|---|---:|---:|---:|---:|"]
-    for s in report.scores:
-        n = f"{s.n}/{s.total}" if s.partial else str(s.n)
-        lines.append(f"| {s.split} | {n} | {s.mean_percent_error:.2f} | {s.median_percent_error:.2f} | "
-                     f"{s.mean_abs_error:.2f} {s.abs_unit} |")
-    for a in report.alls:
-        lines.append(f"| **{_all_name(a)}** | | **{a.mean_percent_error:.2f}** | | |")
+    rows = _table(report, metrics, ci)
+    head = [h.replace("mean %", "mean % error").replace("median %", "median % error") for h in rows[0]]
+    lines += ["| " + " | ".join(head) + " |", "|---|" + "---:|" * (len(head) - 1)]
+    lines += ["| " + " | ".join(r) + " |" for r in rows[1:len(report.scores) + 1]]
+    extra = rows[len(report.scores) + 1:] or [["", "", "", "", ""]] * len(report.alls)
+    for a, r in zip(report.alls, extra, strict=True):
+        cells = r[3:]
+        lines.append(f"| **{_all_name(a)}** | | **{a.mean_percent_error:.2f}** |"
+                     + "".join(f" {c} |" if c else " |" for c in cells))
     if report.unlabelled_ignored:
         lines += ["", f"{report.unlabelled_ignored} predictions for unlabelled examples were ignored."]
     return "\n".join(lines) + "\n"
