@@ -65,6 +65,7 @@ COMMANDS = {  # command name -> (module of this package, attribute): imported on
     "export": ("export_command", "export"),
     "show": ("store_commands", "show"),
     "score": ("score_commands", "score"),
+    "compare": ("score_commands", "compare"),
     "baseline": ("score_commands", "baseline"),
     "leaderboard": ("score_commands", "leaderboard"),
     "train": ("network_commands", "train"),

@@ -1,4 +1,4 @@
-"""`odms-data score`, `odms-data baseline vosde | box-ls` and `odms-data leaderboard`."""
+"""`odms-data score`, `odms-data compare`, `odms-data baseline vosde | box-ls` and `odms-data leaderboard`."""
 
 from __future__ import annotations
 
@@ -97,6 +97,34 @@ def score(predictions, data, as_json, markdown, allow_partial, with_metrics, ci,
         write_text(entry, json.dumps(e.to_json(), indent=2, ensure_ascii=False, allow_nan=False) + "\n",
                    overwrite=overwrite, option="entry")
         click.echo(f"wrote {entry}", err=True)
+
+
+@click.command()
+@click.argument("a", type=click.Path())
+@click.argument("b", type=click.Path())
+@click.option("--data", multiple=True, type=click.Path(), help=DATA_HELP)
+@click.option("--json", "as_json", is_flag=True, help="Print the comparison as JSON.")
+def compare(a, b, data, as_json):
+    """Compare two predictions files of the same examples, paired example by example.
+
+    Per split and per All: each file's mean percent error, the difference A - B, its 95 %
+    paired cluster-bootstrap interval and a sign-flip p-value over recorded sequences
+    (docs/SCORING.md); then, in words, which is better where, or that the data cannot tell
+    them apart. Two files that do not cover the same examples are refused.
+
+    \b
+    Examples:
+      odms-data compare vosde.csv box_ls.csv --data ./odms-stores
+      odms-data compare mine.csv vosde.csv --json
+    """
+    from ..evaluation.compare import render_text
+    from ..evaluation.evaluate import Evaluation
+
+    result = Evaluation(data).compare(a, b)
+    if as_json:
+        echo_json(result.to_json())
+    else:
+        echo_text(render_text(result), nl=False)
 
 
 @click.group()

@@ -13,6 +13,7 @@ from ..errors import InputError
 from ..protocol import split_order
 from ..store.reader import Store, open_store
 from .baseline_result import BaselineCounts, BaselineResult
+from .compare import Comparison, compare
 from .ground_truth import (
     Location,
     data_locations,
@@ -70,6 +71,14 @@ class Evaluation:
             for split in sorted(report.digests):
                 verify_truth(truths[split], progress)
         return preds, report
+
+    def compare(self, a: str | Path, b: str | Path) -> Comparison:
+        """The paired comparison of two predictions files on the same stores (compare.py)."""
+        stores = find_stores(data_locations(self.data))
+        truths = {split: load_truth(path) for split, path in stores.items()}
+        limit = sum(len(t.example_ids) for t in truths.values())
+        reports = [score(read_predictions(p, max_rows=limit), truths, intervals=False) for p in (a, b)]
+        return compare(*reports)
 
     def baseline(
         self, stores: Sequence[Location], output: str | Path, method: Callable[[Store], BaselineResult], *,
