@@ -33,6 +33,9 @@ DATA_HELP = (f"Folder of ground-truth stores, or one store (repeatable). Default
 @click.option("--metrics", "with_metrics", is_flag=True,
               help="Also show AbsRel, SqRel, RMSE, RMSE log, the delta shares, the shares within 5/10/25 % "
                    "and the 90th/95th percentiles of percent error (always in --json; docs/SCORING.md).")
+@click.option("--by", "by", type=click.Choice(["depth", "motion", "window", "object", "sequence", "n-obs"]),
+              help="Also give the figures per group of each split: depth and motion bins (the benchmark's), "
+                   "window length, object, recorded sequence, observations.")
 @click.option("--ci", is_flag=True,
               help="Also show each mean's 95 % interval (cluster bootstrap; always in --json).")
 @click.option("--plot", type=click.Path(), help="Also draw percent error against true depth to this PNG.")
@@ -42,8 +45,8 @@ DATA_HELP = (f"Folder of ground-truth stores, or one store (repeatable). Default
 @click.option("--link", help="Link (http/https) for --entry.")
 @click.option("--n-obs", type=click.IntRange(min=2), help="Observations per example used (for --entry).")
 @click.option("--overwrite", is_flag=True, help="Replace existing --plot and --entry files.")
-def score(predictions, data, as_json, markdown, allow_partial, with_metrics, ci, plot, entry, name, citation,
-          link, n_obs, overwrite):
+def score(predictions, data, as_json, markdown, allow_partial, with_metrics, by, ci, plot, entry, name,
+          citation, link, n_obs, overwrite):
     """Score a predictions file (schemas/PREDICTIONS.md) against the ground-truth stores.
 
     Per split: n, mean and median percent error, mean absolute error; each benchmark's All per
@@ -55,12 +58,12 @@ def score(predictions, data, as_json, markdown, allow_partial, with_metrics, ci,
     Examples:
       odms-data score preds.csv --data ./odms-stores
       odms-data score preds.csv --metrics --ci
+      odms-data score preds.csv --by depth --ci
       odms-data score preds.csv --markdown --plot errors.png
       odms-data score preds.csv --name MyNet --entry leaderboard/mynet.json
     """
     from ..evaluation.evaluate import Evaluation
     from ..evaluation.leaderboard import entry_from_report
-    from ..evaluation.score_tables import render_text, report_markdown
 
     if as_json and markdown:
         raise InputError("give at most one of --json and --markdown")
@@ -80,12 +83,7 @@ def score(predictions, data, as_json, markdown, allow_partial, with_metrics, ci,
     with Bars("verifying {}") as bars:  # the digests an entry records, checked first
         preds, report = Evaluation(data).score(predictions, allow_partial=allow_partial, verify=bool(entry),
                                                progress=bars)
-    if as_json:
-        echo_json(report.to_json())
-    elif markdown:
-        echo_text(report_markdown(report, metrics=with_metrics, ci=ci), nl=False)
-    else:
-        echo_text(render_text(report, metrics=with_metrics, ci=ci), nl=False)
+    _show_score(report, by, "json" if as_json else "markdown" if markdown else "text", with_metrics, ci)
     if plot:
         from ..evaluation.error_plots import plot_errors
 
@@ -125,6 +123,23 @@ def compare(a, b, data, as_json):
         echo_json(result.to_json())
     else:
         echo_text(render_text(result), nl=False)
+
+
+def _show_score(report, by, how, metrics, ci):
+    """Print the score (`how`: json, markdown or text) and, with `by`, its breakdown."""
+    from ..evaluation.breakdown import breakdown
+    from ..evaluation.score_tables import breakdown_markdown, breakdown_text, render_text, report_markdown
+
+    groups = breakdown(report, by) if by else []
+    if how == "json":
+        extra = {"breakdown": {"by": by, "groups": [g.to_json() for g in groups]}} if by else {}
+        echo_json({**report.to_json(), **extra})
+        return
+    markdown = how == "markdown"
+    table, parts = (report_markdown, breakdown_markdown) if markdown else (render_text, breakdown_text)
+    echo_text(table(report, metrics=metrics, ci=ci), nl=False)
+    if by:
+        echo_text("\n" + parts(groups, by, metrics=metrics, ci=ci), nl=False)
 
 
 @click.group()

@@ -1,4 +1,6 @@
-"""The error plot (`odms-data score --plot`): percent error against true depth, one panel per split."""
+"""The error plot (`odms-data score --plot`): percent error against true depth, one panel per split,
+then the mean percent error per depth bin and per motion bin (breakdown.py's groups), one panel per
+split (each split is one domain)."""
 
 from __future__ import annotations
 
@@ -10,6 +12,7 @@ import numpy as np
 from ..errors import InputError
 from ..extras import pyplot
 from ..outputs import atomic_file
+from .breakdown import groups_of
 from .scoring import ScoreReport
 
 NEEDED_BY = "the error plot"  # what needs matplotlib, in its error
@@ -32,6 +35,23 @@ def plot_format(path: str) -> str:
     return suffix
 
 
+def _binned_panel(ax, report: ScoreReport, split: str, key: str) -> None:
+    """Mean percent error per bin of `key` (depth or motion) of one split, with each bin's n."""
+    truth = report.truths[split]
+    idx = report.scored[split][0]
+    which, names = groups_of(truth, idx, key)
+    pe = report.errors[split][1]
+    kept = [b for b in range(len(names)) if (which == b).any()]
+    means = [float(pe[which == b].mean()) for b in kept]
+    ax.bar(range(len(kept)), means, color="tab:blue" if key == "depth" else "tab:orange")
+    ticks = [f"{names[b].removesuffix(' m')}\nn={int((which == b).sum())}" for b in kept]
+    ax.set_xticks(range(len(kept)), ticks, fontsize=6)
+    ax.set_title(f"{split}: mean % error by {'true depth d1' if key == 'depth' else 'camera travel'} (m)",
+                 fontsize=8)
+    ax.set_ylabel("mean percent error")
+    ax.grid(alpha=0.3, axis="y")
+
+
 def plot_errors(report: ScoreReport, path: str, *, overwrite: bool = False) -> None:
     """Scatter of each example's percent error against its true depth d1, with the binned median,
     written to `path` (format from its suffix) as every output is (outputs.atomic_file)."""
@@ -42,7 +62,13 @@ def plot_errors(report: ScoreReport, path: str, *, overwrite: bool = False) -> N
     splits = [s for s in report.scores if s.split in report.errors]
     cols = min(4, len(splits))
     rows = math.ceil(len(splits) / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.4 * rows), squeeze=False)
+    fig, grid = plt.subplots(3 * rows, cols, figsize=(4.2 * cols, 3.4 * 3 * rows), squeeze=False)
+    axes = grid[:rows]
+    for key, block in (("depth", grid[rows:2 * rows]), ("motion", grid[2 * rows:])):
+        for ax, s in zip(block.flat, splits, strict=False):
+            _binned_panel(ax, report, s.split, key)
+        for ax in list(block.flat)[len(splits):]:
+            ax.set_visible(False)
     for ax, s in zip(axes.flat, splits, strict=False):
         truth, pe = report.errors[s.split]
         ax.scatter(truth, pe, s=3, alpha=0.35, linewidths=0)

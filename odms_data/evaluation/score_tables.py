@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 from ..protocol import BENCHMARKS
-from .metrics import METRICS, AllScore
+from .breakdown import GroupScore
+from .metrics import METRICS, AllScore, SplitScore
 from .scoring import ScoreReport
 
 
@@ -46,16 +47,23 @@ def _ci(ci95: dict, key: str) -> str:
     return "" if lo is None else f"[{lo:.2f}, {hi:.2f}]"
 
 
+def _head(metrics: bool, ci: bool) -> list[str]:
+    return ["n", "mean %", *(["95% CI"] if ci else []), "median %", "mean abs error",
+            *([METRIC_HEADS[m] for m in METRICS] if metrics else [])]
+
+
+def _cells(s: SplitScore, metrics: bool, ci: bool) -> list[str]:
+    """One split's (or group's) cells under _head."""
+    n = f"{s.n}/{s.total}" if s.partial else str(s.n)
+    return [n, f"{s.mean_percent_error:.2f}", *([_ci(s.ci95, "mean_percent_error")] if ci else []),
+            f"{s.median_percent_error:.2f}", f"{s.mean_abs_error:.2f} {s.abs_unit}",
+            *([f"{s.metrics[m]:.3f}" for m in METRICS] if metrics else [])]
+
+
 def _table(report: ScoreReport, metrics: bool, ci: bool) -> list[list[str]]:
     """The table's rows, its head first: per split, then (with metrics or ci) per All."""
-    head = ["split", "n", "mean %", *(["95% CI"] if ci else []), "median %", "mean abs error"]
-    rows = [head + ([METRIC_HEADS[m] for m in METRICS] if metrics else [])]
-    for s in report.scores:
-        n = f"{s.n}/{s.total}" if s.partial else str(s.n)
-        interval = [_ci(s.ci95, "mean_percent_error")] if ci else []
-        rows.append([s.split, n, f"{s.mean_percent_error:.2f}", *interval, f"{s.median_percent_error:.2f}",
-                     f"{s.mean_abs_error:.2f} {s.abs_unit}",
-                     *([f"{s.metrics[m]:.3f}" for m in METRICS] if metrics else [])])
+    rows = [["split", *_head(metrics, ci)]]
+    rows += [[s.split, *_cells(s, metrics, ci)] for s in report.scores]
     for a in report.alls if metrics or ci else ():
         interval = [_ci(a.ci95, "mean_percent_error")] if ci else []
         rows.append([_all_name(a), "", f"{a.mean_percent_error:.2f}", *interval, "", "",
@@ -63,15 +71,35 @@ def _table(report: ScoreReport, metrics: bool, ci: bool) -> list[list[str]]:
     return rows
 
 
+def _aligned(rows: list[list[str]], left: int = 1) -> list[str]:
+    """Rows as text columns: the first `left` left-aligned, the others right-aligned."""
+    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+    return ["  ".join([c.ljust(w) if i < left else c.rjust(w) for i, (c, w) in enumerate(zip(r, widths,
+                                                                                         strict=True))])
+            for r in rows]
+
+
+def breakdown_rows(groups: list[GroupScore], key: str, metrics: bool, ci: bool) -> list[list[str]]:
+    """The rows of a breakdown by `key`, its head first."""
+    return [["split", key, *_head(metrics, ci)]] + [[g.split, g.group, *_cells(g.score, metrics, ci)]
+                                                     for g in groups]
+
+
+def breakdown_text(groups: list[GroupScore], key: str, *, metrics: bool = False, ci: bool = False) -> str:
+    return "\n".join([f"by {key}:", *_aligned(breakdown_rows(groups, key, metrics, ci), left=2)]) + "\n"
+
+
+def breakdown_markdown(groups: list[GroupScore], key: str, *, metrics: bool = False, ci: bool = False) -> str:
+    rows = breakdown_rows(groups, key, metrics, ci)
+    lines = [f"By {key}:", "", "| " + " | ".join(rows[0]) + " |", "|---|---|" + "---:|" * (len(rows[0]) - 2)]
+    return "\n".join([*lines, *("| " + " | ".join(r) + " |" for r in rows[1:])]) + "\n"
+
+
 def render_text(report: ScoreReport, *, metrics: bool = False, ci: bool = False) -> str:
     """The plain-text table; `metrics` adds the depth metrics' columns, `ci` the 95 % interval of
     each mean percent error (both add a row per All)."""
-    rows = _table(report, metrics, ci)
-    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
     lines = _banner(report) + [f"{report.predictions}: {report.rows} predictions"]
-    for r in rows:
-        lines.append("  ".join([r[0].ljust(widths[0])] + [c.rjust(w) for c, w in zip(r[1:], widths[1:],
-                                                                                     strict=True)]))
+    lines += _aligned(_table(report, metrics, ci))
     return "\n".join(lines + _footer(report) + _banner(report)) + "\n"
 
 
