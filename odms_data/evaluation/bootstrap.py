@@ -72,7 +72,8 @@ def resampled_means(terms: np.ndarray, codes: np.ndarray, split: str) -> np.ndar
 def interval(samples: np.ndarray) -> tuple[float, float]:
     """The LEVEL percentile interval of the resampled values (last axis)."""
     tail = (1 - LEVEL) / 2 * 100
-    lo, hi = np.percentile(samples, [tail, 100 - tail], axis=-1)
+    with np.errstate(invalid="ignore", over="ignore"):  # infinite resamples give an infinite bound
+        lo, hi = np.percentile(samples, [tail, 100 - tail], axis=-1)
     return float(lo), float(hi)
 
 
@@ -85,7 +86,8 @@ def flip_statistics(diffs: np.ndarray, codes: np.ndarray, split: str) -> np.ndar
     for start in range(0, FLIPS, FLIP_BLOCK):
         rows = min(FLIP_BLOCK, FLIPS - start)
         bits = np.unpackbits(np.frombuffer(rng.bytes(-(-rows * c // 8)), np.uint8))[: rows * c]
-        out[start:start + rows] = 2 * (bits.reshape(rows, c).astype(np.float64) @ sums) - sums.sum()
+        with np.errstate(invalid="ignore", over="ignore"):  # infinite differences flip to NaN
+            out[start:start + rows] = 2 * (bits.reshape(rows, c).astype(np.float64) @ sums) - sums.sum()
     return out / len(diffs)
 
 

@@ -36,7 +36,7 @@ class Difference:
     def better(self) -> str | None:
         """"A" or "B" (lower error) when the data tell them apart, else None."""
         lo, hi = self.ci95
-        if self.p_value >= ALPHA or lo <= 0 <= hi:
+        if self.p_value >= ALPHA or not lo <= hi or lo <= 0 <= hi:  # NaN bounds: infinite errors
             return None
         return "A" if self.difference < 0 else "B"
 

@@ -76,7 +76,8 @@ def depth_metrics(pred: np.ndarray, truth: np.ndarray) -> dict[str, float]:
     m = term_matrix(pred, truth)
     values = {k: float(v) for k, v in from_means(m.mean(axis=1)).items()
               if k not in ("mean_percent_error", "mean_abs_error_m")}
-    return values | {f"p{q:g}_percent": float(np.percentile(m[0], q)) for q in PERCENTILES}
+    with np.errstate(invalid="ignore", over="ignore"):  # of infinite errors
+        return values | {f"p{q:g}_percent": float(np.percentile(m[0], q)) for q in PERCENTILES}
 
 
 METRICS = tuple(depth_metrics(np.ones(1), np.ones(1)))  # the names of the metrics beside the headline
