@@ -90,6 +90,15 @@ def cli_seconds(args: list[str]) -> float:
     return time.perf_counter() - t
 
 
+def official_stores(data: str | None, script: str) -> dict[str, Path]:
+    """The eight official stores in `data` (default $ODMS_DATA), by split; exits naming any missing."""
+    found = find_stores(data_locations([data] if data else []))
+    missing = [s for s in OFFICIAL if s not in found]
+    if missing:
+        sys.exit(f"benchmarks/{script}: the data folder lacks {', '.join(missing)}")
+    return {s: Path(found[s]) for s in OFFICIAL}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", default=None, help="folder of the eight official stores (default $ODMS_DATA)")
@@ -97,11 +106,7 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3)
     _results.add_options(ap)
     a = ap.parse_args()
-    found = find_stores(data_locations([a.data] if a.data else []))
-    missing = [s for s in OFFICIAL if s not in found]
-    if missing:
-        sys.exit(f"benchmarks/score.py: the data folder lacks {', '.join(missing)}")
-    paths = {s: found[s] for s in OFFICIAL}
+    paths = official_stores(a.data, "score.py")
 
     t_stats, rows = median_time(lambda: vosde_from_stats(paths), a.repeat)
     n_ex = len(rows)

@@ -12,16 +12,14 @@ from __future__ import annotations
 
 import argparse
 import os
-import statistics
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 from odms_data.evaluation.bootstrap import FLIPS, RESAMPLES
 from odms_data.evaluation.breakdown import breakdown
 from odms_data.evaluation.compare import compare
-from odms_data.evaluation.ground_truth import data_locations, find_stores, load_truth
+from odms_data.evaluation.ground_truth import load_truth
 from odms_data.evaluation.predictions import read_predictions, write_predictions
 from odms_data.evaluation.scoring import score
 from odms_data.evaluation.vosde import vosde
@@ -30,15 +28,7 @@ from odms_data.store.reader import open_store
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import _results  # noqa: E402
-
-
-def median_time(fn, repeat: int) -> tuple[float, object]:
-    times, out = [], None
-    for _ in range(repeat):
-        t = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t)
-    return statistics.median(times), out
+from score import median_time, official_stores  # noqa: E402
 
 
 def main() -> None:
@@ -47,10 +37,7 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3)
     _results.add_options(ap)
     a = ap.parse_args()
-    found = find_stores(data_locations([a.data] if a.data else []))
-    missing = [s for s in OFFICIAL_SPLITS if s not in found]
-    if missing:
-        sys.exit(f"benchmarks/score_intervals.py: the data folder lacks {', '.join(missing)}")
+    found = official_stores(a.data, "score_intervals.py")
     rows = []
     for split in OFFICIAL_SPLITS:
         with open_store(str(found[split])) as s:
