@@ -75,7 +75,7 @@ def _aligned(rows: list[list[str]], left: int = 1) -> list[str]:
     """Rows as text columns: the first `left` left-aligned, the others right-aligned."""
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
     return ["  ".join([c.ljust(w) if i < left else c.rjust(w) for i, (c, w) in enumerate(zip(r, widths,
-                                                                                         strict=True))])
+                                                                                         strict=True))]).rstrip()
             for r in rows]
 
 
