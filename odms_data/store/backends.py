@@ -141,9 +141,6 @@ class ZarrBackend(Backend):
     def __init__(self, path: str, mode: Mode) -> None:
         import zarr
 
-        from .zarr_codec import use_bounded_zstd
-
-        use_bounded_zstd()
         self.path = path
         # arrays opened for reading, kept: each opening reads (and checks) its zarr.json, a request
         # or more per array and call on S3
@@ -193,12 +190,14 @@ class ZarrBackend(Backend):
         if self._read is not None and name in self._read:
             return self._read[name]
         self._check_metadata(name)
+        from .zarr_codec import scoped
+
         try:
             arr = self.group[name]
+            if self._read is not None:  # odms-data's codecs for this array alone
+                self._read[name] = arr = scoped(arr)
         except Exception as e:  # malformed metadata surfaces as many exception types
             raise StoreError(f"{self.path}: array '{name}' is unreadable ({type(e).__name__}: {e})") from e
-        if self._read is not None:
-            self._read[name] = arr
         return arr
 
     def read_attrs(self) -> dict[str, Any] | None:

@@ -1,25 +1,22 @@
-"""zarr's codecs as odms-data reads them: a zstd chunk's decompression bounded by its chunk's size
-(chunk_codecs.py), and a shard that lacks one of its chunks refused as damage (a store is always
-written whole; zarr would read the chunk as zeros).
+"""zarr's codecs as odms-data reads its own stores: a zstd chunk's decompression bounded by its
+chunk's size (chunk_codecs.py), and a shard that lacks one of its chunks refused as damage (a store
+is always written whole; zarr would read the chunk as zeros).
 
-`use_bounded_zstd()` makes them the codecs zarr uses for "zstd" and "sharding_indexed" in this
-process; ZarrBackend calls it before opening a store, so every read through zarr is checked.
+`scoped(array)` is an array of an odms-data store opened for reading, with its codecs replaced by
+these; ZarrBackend applies it to every array it reads. Nothing is registered with zarr: every other
+array in the process reads with zarr's own codecs.
 """
 
 from __future__ import annotations
 
+import itertools
 from contextvars import ContextVar
-from dataclasses import dataclass
-from functools import cache
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 import zarr
 from zarr.codecs import ShardingCodec, ZstdCodec
-from zarr.core.buffer.cpu import as_numpy_array_wrapper
-from zarr.core.chunk_grids import RegularChunkGrid
-from zarr.core.indexing import get_indexer
-from zarr.registry import register_codec
 
 from ..errors import StoreError
 from .chunk_codecs import zstd_decode
@@ -33,22 +30,16 @@ class BoundedZstdCodec(ZstdCodec):
 
     def _decode_sync(self, chunk_bytes: Any, chunk_spec: Any) -> Any:
         expected = int(np.prod(chunk_spec.shape)) * chunk_spec.dtype.to_native_dtype().itemsize
-
-        def decode(buf: np.ndarray) -> bytes:
-            return zstd_decode(buf.data.cast("B"), expected)
-
-        return as_numpy_array_wrapper(decode, chunk_bytes, chunk_spec.prototype)
+        data = zstd_decode(chunk_bytes.as_numpy_array().data.cast("B"), expected)
+        return chunk_spec.prototype.buffer.from_bytes(data)
 
 
 class WholeShardCodec(ShardingCodec):
     """zarr's sharding codec, refusing a read of a chunk that its shard's index lacks. Only the
-    chunks read are required: the last shard has none past the array's end, and a write that fills
-    a shard in parts reads an index that lacks the chunks still to come."""
+    chunks read are required: the last shard has none past the array's end."""
 
     async def _decode_partial_single(self, byte_getter: Any, selection: Any, shard_spec: Any) -> Any:
-        grid = RegularChunkGrid(chunk_shape=self.chunk_shape)
-        token = _wanted.set({coords for coords, *_ in get_indexer(selection, shape=shard_spec.shape,
-                                                                   chunk_grid=grid)})
+        token = _wanted.set(_chunks_read(selection, shard_spec.shape, self.chunk_shape))
         try:
             return await super()._decode_partial_single(byte_getter, selection, shard_spec)
         finally:
@@ -63,9 +54,31 @@ class WholeShardCodec(ShardingCodec):
         return index
 
 
-@cache
-def use_bounded_zstd() -> None:
-    register_codec("zstd", BoundedZstdCodec)
-    register_codec("sharding_indexed", WholeShardCodec)
-    zarr.config.set({"codecs.zstd": f"{__name__}.BoundedZstdCodec",
-                     "codecs.sharding_indexed": f"{__name__}.WholeShardCodec"})
+def _chunks_read(selection: tuple, shard_shape: tuple[int, ...], chunk_shape: tuple[int, ...]) -> set:
+    """The coordinates of the inner chunks that `selection` (an int, slice or index array per axis)
+    of a shard touches; for a selection of points, the chunks of every combination of its axes."""
+    axes = [np.unique(np.arange(n)[s] // c).tolist() for s, n, c in zip(selection, shard_shape, chunk_shape,
+                                                                         strict=True)]
+    return set(itertools.product(*axes))
+
+
+def _bounded(codec: Any) -> Any:
+    """`codec` with zstd decoding bounded and missing shard chunks refused, at every depth."""
+    name = codec.to_dict()["name"]
+    if name == "zstd":
+        return BoundedZstdCodec(level=codec.level, checksum=codec.checksum)
+    if name == "sharding_indexed":
+        return WholeShardCodec(chunk_shape=codec.chunk_shape, codecs=[_bounded(c) for c in codec.codecs],
+                               index_codecs=[_bounded(c) for c in codec.index_codecs],
+                               index_location=codec.index_location)
+    return codec
+
+
+def scoped(array: zarr.Array | zarr.Group) -> zarr.Array:
+    """`array` (of an odms-data store, opened for reading) reading through the codecs above."""
+    if not isinstance(array, zarr.Array):
+        raise TypeError("a group, not an array")
+    meta: Any = array.metadata  # Zarr v3's: ZarrBackend opens v3 stores only
+    codecs = tuple(_bounded(c) for c in meta.codecs)
+    inner = array.async_array
+    return zarr.Array(zarr.AsyncArray(replace(meta, codecs=codecs), inner.store_path, inner.config))
