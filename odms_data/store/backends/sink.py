@@ -3,8 +3,8 @@
 zarr spends about twice the compression's own time on a full shard write (a fresh fill-value
 array and a copy per inner chunk, and an asyncio task per chunk). A shard task knows its chunks
 one by one, so it compresses each as soon as it is made and writes the shard's bytes at once:
-one file write for a local store (shard_layout.py; zarr is not even imported), one store call
-for a URL. zarr reads them as it reads its own (tests/store check it). HDF5 chunks are deflated
+one file write for a local store (zarr.py's ShardLayout; zarr is not even imported), one store
+call for a URL. zarr reads them as it reads its own (tests/store check it). HDF5 chunks are deflated
 the same way and handed back to the single writer. Workers reach the store through a `MaskSink`,
 which StoreWriter.mask_sink gives and StoreWriter.receive_masks completes.
 """
@@ -18,8 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .backends import BACKENDS, GZIP_LEVEL, ZSTD_LEVEL, storage_options
-from .shard_layout import ShardLayout, encode_index
+from .choose import BACKENDS
+from .common import GZIP_LEVEL, ZSTD_LEVEL, storage_options
+from .zarr import ShardLayout, encode_index
 
 
 class ShardChunks:

@@ -1,5 +1,5 @@
 """zarr's codecs as odms-data reads its own stores: a zstd chunk's decompression bounded by its
-chunk's size (chunk_codecs.py), and a shard that lacks one of its chunks refused as damage (a store
+chunk's size (common.py), and a shard that lacks one of its chunks refused as damage (a store
 is always written whole; zarr would read the chunk as zeros).
 
 `scoped(array)` is an array of an odms-data store opened for reading, with its codecs replaced by
@@ -18,8 +18,8 @@ import numpy as np
 import zarr
 from zarr.codecs import ShardingCodec, ZstdCodec
 
-from ..errors import StoreError
-from .chunk_codecs import zstd_decode
+from ...errors import StoreError
+from .common import zstd_decode
 
 _wanted: ContextVar[frozenset | set] = ContextVar("wanted", default=frozenset())  # chunks a read needs
 
