@@ -20,7 +20,7 @@ import numpy as np
 
 from .choose import BACKENDS
 from .common import GZIP_LEVEL, ZSTD_LEVEL, storage_options
-from .zarr import ShardLayout, encode_index
+from .zarr import ShardLayout, encode_index, on_zarr_loop
 
 
 class ShardChunks:
@@ -61,14 +61,13 @@ class ShardChunks:
             partial.replace(target)  # whole or not at all, as zarr's own local writes
             return []
         import zarr
-        from zarr.core.buffer import default_buffer_prototype
-        from zarr.core.sync import sync
+        from zarr.buffer import default_buffer_prototype
 
         masks = zarr.open_array(store=path, path="masks", mode="r+", storage_options=storage_options(path))
         per_shard = masks.shards[0] // masks.chunks[0]  # type: ignore[index]  # masks is sharded
         key = masks.metadata.encode_chunk_key((start // masks.shards[0], 0, 0))  # type: ignore[index]
-        data = shard_bytes(self.chunks, per_shard)
-        sync(masks.store.set(f"{masks.path}/{key}", default_buffer_prototype().buffer.from_bytes(data)))
+        data = default_buffer_prototype().buffer.from_bytes(shard_bytes(self.chunks, per_shard))
+        on_zarr_loop(masks.store.set(f"{masks.path}/{key}", data))
         return []
 
 

@@ -27,20 +27,26 @@ from .common import ZSTD_LEVEL, Backend, Mode, is_url, storage_options, url_file
 SETTLE_TIMEOUT_S = 60
 
 
+def on_zarr_loop(coroutine: Any) -> Any:
+    """Run `coroutine` on zarr's I/O thread's event loop and return its result: the one use of a
+    private zarr module (zarr.core.sync), for what zarr's public API does not do."""
+    from zarr.core.sync import sync
+
+    return sync(coroutine)
+
+
 def settle_zarr_io() -> None:
     """Wait for zarr's writes still in flight on its I/O thread. When one write of a call fails (a
     full disk) or the caller is interrupted, the call raises at once while its other writes go on,
     and would recreate files in a store being removed."""
     import asyncio
 
-    from zarr.core.sync import sync
-
     async def others() -> None:
         pending = [t for t in asyncio.all_tasks() if t is not asyncio.current_task()]
         if pending:
             await asyncio.wait(pending, timeout=SETTLE_TIMEOUT_S)
 
-    sync(others())
+    on_zarr_loop(others())
 
 
 class ZarrBackend(Backend):
