@@ -17,7 +17,10 @@ from __future__ import annotations
 import threading
 import zlib
 from abc import ABC, abstractmethod
+from collections.abc import Iterable
 from typing import Any, ClassVar, Literal, Protocol
+
+from ...errors import StoreError
 
 Mode = Literal["r", "r+", "w"]  # read, update, create
 HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
@@ -74,8 +77,15 @@ class Backend(ABC):
     @abstractmethod
     def __init__(self, path: str, mode: Mode) -> None: ...
 
+    def names(self) -> set[str]:
+        """The names of the store's arrays."""
+        try:
+            return set(self._array_names())
+        except Exception as e:  # a damaged store surfaces as many exception types
+            raise StoreError(f"{self.path}: cannot list arrays ({type(e).__name__}: {e})") from e
+
     @abstractmethod
-    def names(self) -> set[str]: ...
+    def _array_names(self) -> Iterable[str]: ...
 
     @abstractmethod
     def array(self, name: str) -> StoreArray: ...

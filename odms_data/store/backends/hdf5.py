@@ -12,6 +12,7 @@ from __future__ import annotations
 import io
 import json
 import math
+from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
@@ -72,11 +73,8 @@ class Hdf5Backend(Backend):
         except OSError as e:
             raise StoreError(f"{path}: not a readable HDF5 file ({e})") from e
 
-    def names(self) -> set[str]:
-        try:
-            return set(self.file.keys())
-        except Exception as e:
-            raise StoreError(f"{self.path}: cannot list arrays ({type(e).__name__}: {e})") from e
+    def _array_names(self) -> Iterable[str]:
+        return self.file.keys()
 
     def array(self, name: str) -> Any:
         import h5py

@@ -14,6 +14,7 @@ anything else, which is then read and written through zarr.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -75,11 +76,8 @@ class ZarrBackend(Backend):
         except Exception as e:  # zarr raises several types for "not a group"
             raise StoreError(f"{path}: not a readable Zarr v3 store ({type(e).__name__}: {e})") from e
 
-    def names(self) -> set[str]:
-        try:
-            return set(self.group.array_keys())
-        except Exception as e:
-            raise StoreError(f"{self.path}: cannot list arrays ({type(e).__name__}: {e})") from e
+    def _array_names(self) -> Iterable[str]:
+        return self.group.array_keys()
 
     def _check_metadata(self, name: str) -> None:
         """Bound the size and depth of a zarr.json, local or at a URL, before zarr parses it
