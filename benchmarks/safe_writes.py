@@ -3,7 +3,7 @@
 Run by hand: `python benchmarks/safe_writes.py [--count 2000] [--main-src DIR]`.
 
 - HDF5 writes: `convert` of a Zarr store to HDF5 (I/O only) and `generate` into HDF5, through the
-  fail-safe file of store/backends.py (h5py's fileobj driver), against the same with h5py's own
+  fail-safe file of store/backends/hdf5.py (h5py's fileobj driver), against the same with h5py's own
   `sec2` driver (the baseline, what the writer used before);
 - the fsync of a finished Zarr store before its rename: `convert` of an HDF5 store to Zarr with
   and without it;

@@ -1,4 +1,4 @@
-"""The direct shard path (store/shard_layout.py, shard_writer.py, shard_reader.py) against zarr's own.
+"""The direct shard path (store/backends/zarr.py, sink.py) against zarr's own.
 
 Run by hand: `python benchmarks/shards.py [--frames 4096] [--repeat 5]`. One local Zarr store of
 generated-looking packed masks (480x640, 10 frames a chunk, 100 a shard) is written shard by shard
@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 import zarr
 
+from odms_data.store.backends import ShardReader
 from odms_data.store.masks import packed_width
-from odms_data.store.shard_reader import ShardReader
 from odms_data.store.writer import Layout, StoreWriter
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))

@@ -10,6 +10,8 @@ A store of --count generated examples is written in Zarr and HDF5 with this chec
   checks, the bytes on disk);
 - read: open and read every example with its masks (`Store.example`, what the loaders call; each
   chunk decompressed with its bound);
+- zarr: open and read every example's masks through zarr (`Store.backend.array`), as a store at a
+  URL is read: odms-data's codecs (the bounded zstd, the refusal of a missing chunk) on each chunk;
 - score: the labels of the store and scoring a predictions file of every example (what `score`
   does after parsing its arguments).
 
@@ -47,11 +49,20 @@ elif what == "read":
     with open_store(store) as s:
         for i in range(len(s)):
             s.example(i)
+elif what == "zarr":
+    with open_store(store) as s:
+        masks = s.backend.array("masks")
+        for i in range(len(s)):
+            frames = s.frames_of(i)
+            masks[int(frames.min()) : int(frames.max()) + 1]
 else:
     truth = load_truth(Path(store))
     score(read_predictions(preds), {truth.split: truth})
 print(time.perf_counter() - t)
 """
+
+
+OPERATIONS = {"zarr": ("open", "read", "zarr", "score"), "hdf5": ("open", "read", "score")}
 
 
 def child_seconds(src: Path, store: Path, what: str, preds: Path) -> float:
@@ -109,13 +120,13 @@ def main() -> None:
         times: dict[str, list[float]] = {}
         for _ in range(args.repeat):
             for fmt, store in stores.items():
-                for what in ("open", "read", "score"):
+                for what in OPERATIONS[fmt]:
                     for name, src in sources.items():  # taking turns: the machine's load falls on both
                         key = f"{fmt} {what} {name}"
                         times.setdefault(key, []).append(child_seconds(src, store, what, preds))
         figures = {}
         for fmt in stores:
-            for what in ("open", "read", "score"):
+            for what in OPERATIONS[fmt]:
                 base = statistics.median(times[f"{fmt} {what} base"])
                 new = statistics.median(times[f"{fmt} {what} new"])
                 figures[f"{fmt} {what}"] = {"base_s": round(base, 4), "new_s": round(new, 4),

@@ -276,9 +276,8 @@ class Partial:
         sibling is refused now, before the work, rather than when the output is moved into place."""
         if self.is_folder or self.target.is_dir():  # the two cases that move the old output aside
             _refuse_foreign(sibling(self.target, ".replaced"), self.target, self.kind)
-        with uninterrupted():  # a stop waits until `discard` knows to remove it
-            _make_sibling_folder(self.folder, self.target, self.kind)
-            self._made = True
+        self._made = True  # before: `discard` removes what a stop leaves of it, which is provably ours
+        _make_sibling_folder(self.folder, self.target, self.kind)
         return self.path
 
     def commit(self) -> None:
@@ -295,8 +294,9 @@ class Partial:
             self._made = False
 
     def discard(self) -> None:
-        """Remove what was written, if this made it."""
-        if self._made and self.folder.is_dir() and not self.folder.is_symlink():  # made under our lock
+        """Remove what was written, if this made it: the sibling folder, if it is odms-data's own
+        (`_ours`: empty or marked), as a stop in the middle of its making leaves it."""
+        if self._made and _ours(self.folder, self.kind):  # made under our lock
             _remove_sibling_folder(self.folder)
         self._made = False
 

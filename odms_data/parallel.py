@@ -36,6 +36,8 @@ from concurrent.futures import Future, ProcessPoolExecutor
 from itertools import islice
 from typing import Any, TypeVar
 
+from .interrupts import held, left_to_the_parent
+
 Item = TypeVar("Item")
 Handle = TypeVar("Handle")
 Result = TypeVar("Result")
@@ -97,16 +99,15 @@ def _start_fork_server() -> None:
     saved = {k: os.environ.get(k) for k in ("PYTHONSAFEPATH", "PYTHONPATH")}
     os.environ.update(PYTHONSAFEPATH="1", PYTHONPATH=os.pathsep.join(path))
     multiprocessing.resource_tracker.ensure_running()  # first: its start unblocks SIGINT when done
-    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:
-        multiprocessing.forkserver.ensure_running()
-    finally:
-        for k, v in saved.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
-        signal.pthread_sigmask(signal.SIG_SETMASK, blocked)  # last: a pending Ctrl-C is raised here
+    with held({signal.SIGINT}):  # left last: a pending Ctrl-C is raised there
+        try:
+            multiprocessing.forkserver.ensure_running()
+        finally:
+            for k, v in saved.items():
+                if v is None:
+                    os.environ.pop(k, None)
+                else:
+                    os.environ[k] = v
     ready = multiprocessing.get_context("forkserver").Process(target=_nothing, name="fork-server-ready")
     ready.start()
     ready.join()
@@ -127,7 +128,7 @@ def _nothing() -> None:
 
 
 def _start_worker(initializer: Callable[..., None] | None, initargs: tuple[Any, ...]) -> None:
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # also from a fork server not ours: the caller stops us
+    left_to_the_parent()  # also from a fork server not ours: the caller stops us
     parent = multiprocessing.parent_process()
     if parent is not None:
         threading.Thread(target=_exit_with, args=(parent,), daemon=True, name="exit-with-parent").start()

@@ -26,7 +26,7 @@ import cv2, h5py, matplotlib.pyplot, numcodecs, PIL.Image, torch, zarr, zstandar
 from odms_data.cli import main
 from odms_data.errors import OdmsError
 from odms_data.loaders.numpy_loader import store_batches
-import odms_data.store.zarr_codec, odms_data.network.prediction, odms_data.publish.hub_export
+import odms_data.store.backends.zarr_codecs, odms_data.network.prediction, odms_data.publish.hub_export
 
 size = int(open("/proc/self/statm").read().split()[0]) * resource.getpagesize()
 resource.setrlimit(resource.RLIMIT_AS, (size + int(sys.argv[1]), size + int(sys.argv[1])))

@@ -15,10 +15,6 @@ import math
 import os
 import signal
 import sys
-import threading
-import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from importlib import import_module
 from typing import Any
 
@@ -26,7 +22,7 @@ import click
 
 from .._version import __version__
 from ..errors import Interrupted, OdmsError
-from ..interrupts import STOP_SIGNALS, stop_requested
+from ..interrupts import stops_interrupt
 from ..shown_text import for_terminal
 
 
@@ -73,66 +69,6 @@ COMMANDS = {  # command name -> (module of this package, attribute): imported on
 }
 
 
-class _SwallowedStops:
-    """Python swallows an exception raised while a finalizer runs (`__del__`, a weakref callback):
-    it prints "Exception ignored" with a traceback and goes on, so a stop that came then was lost
-    and the command ran to its end. As `sys.unraisablehook`, this takes such a stop back, and a
-    helper thread sends its signal again until it is raised in the code the finalizer interrupted."""
-
-    def __init__(self, handler: Any, hook: Any) -> None:
-        self.handler, self.hook = handler, hook
-        self.lost: list[int] = []  # the swallowed stop's signal, until it is raised again
-        self.in_hook = threading.Event()  # a stop raised in the hook would be swallowed too
-
-    def __call__(self, u: Any) -> None:
-        main = threading.current_thread() is threading.main_thread()
-        if not (main and isinstance(u.exc_value, Interrupted)):
-            self.hook(u)
-            return
-        self.in_hook.set()
-        try:
-            signal.signal(u.exc_value.signum, self.handler)
-            if not self.lost:
-                self.lost.append(u.exc_value.signum)
-                threading.Thread(target=self._resend, daemon=True, name="resend-stop").start()
-        finally:
-            self.in_hook.clear()
-
-    def _resend(self) -> None:
-        while self.lost:
-            time.sleep(0.01)
-            if self.lost and not self.in_hook.is_set():
-                os.kill(os.getpid(), self.lost[0])
-
-
-@contextmanager
-def _signals_interrupt() -> Iterator[None]:
-    """Turn the stop signals into `Interrupted` (interrupts.stop_requested); once one came, later ones
-    are ignored, so the clean-up it starts is not cut short. One a finalizer swallowed is raised
-    again (`_SwallowedStops`)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-
-    def stop(signum: int, frame: object) -> None:
-        if swallowed.in_hook.is_set():  # the helper sends it again
-            return
-        swallowed.lost.clear()
-        for s in STOP_SIGNALS:
-            signal.signal(s, signal.SIG_IGN)
-        stop_requested(signum)
-
-    swallowed = _SwallowedStops(stop, sys.unraisablehook)
-    previous = {s: signal.signal(s, stop) for s in STOP_SIGNALS}
-    sys.unraisablehook = swallowed
-    try:
-        yield
-    finally:
-        sys.unraisablehook = swallowed.hook
-        for s, handler in previous.items():
-            signal.signal(s, handler)
-
-
 def _printable_anywhere() -> None:
     """A character the terminal's encoding lacks (an en dash on a Latin-1 terminal) is printed as
     an escape instead of failing the command."""
@@ -169,7 +105,7 @@ class OdmsGroup(click.Group):
         if not standalone_mode:
             return super().main(args, prog_name, complete_var, standalone_mode, **extra)
         _printable_anywhere()
-        with _signals_interrupt():
+        with stops_interrupt():
             try:
                 code = super().main(args, prog_name, complete_var, False, **extra)
             except click.exceptions.NoArgsIsHelpError as e:  # a bare `odms-data`: its help

@@ -20,9 +20,9 @@ import numpy as np
 
 from ..errors import InputError
 from ..parallel import cores, end_pool, pool_map, worker_pool
+from ..store.backends import MaskSink
 from ..store.digest import frame_digests
 from ..store.masks import FrameStats, pack, packed_width
-from ..store.shard_writer import MaskSink
 from .plan import MaskSource
 
 Item = TypeVar("Item")

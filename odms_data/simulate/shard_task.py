@@ -11,8 +11,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..store.backends import MaskSink
 from ..store.masks import FrameStats
-from ..store.shard_writer import MaskSink
 from .params import GeneratorParams
 
 SOURCE = "generated"

@@ -9,7 +9,7 @@ one drawn at training size as coverage and as 0/1 masks.
 
 from __future__ import annotations
 
-from ..store.shard_writer import MaskSink
+from ..store.backends import MaskSink
 from .batch_render import render_masks, render_shrunk
 from .object_model import sample_examples
 from .params import PRESETS

@@ -5,7 +5,7 @@ arrays' shapes and chunk shapes. Before anything is read (`storage_problems`):
 
 - every array is a plain array, stored as odms-data writes them: HDF5 datasets that are hard
   links, neither virtual nor external, chunked, gzip or no filter; Zarr arrays whose codecs are
-  the ones odms-data writes (each decoded with a bound, chunk_codecs.py);
+  the ones odms-data writes (each decoded with a bound, backends/common.py);
 - a chunk decodes to at most MAX_CHUNK_BYTES, the most one read holds;
 - every chunk is there: a store is always written whole, so an absent chunk is damage, never
   zeros;
@@ -24,8 +24,8 @@ from typing import Any
 import numpy as np
 
 from .backends import Backend, is_url, url_filesystem
+from .backends.hdf5 import DEFLATE
 from .format import arrays_of, kind_of, layout_problems
-from .hdf5_reader import DEFLATE
 
 MAX_CHUNK_BYTES = 64 * 2**20  # a mask chunk of the largest images odms-data makes is under 2 MB
 FREE_BYTES = 64 * 2**20  # small stores are never refused by MAX_RATIO

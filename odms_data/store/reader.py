@@ -11,7 +11,7 @@ from typing import Any, TypeVar
 import numpy as np
 
 from ..errors import InputError, StoreError
-from .backends import Backend, open_backend
+from .backends import Backend, ShardReader, open_backend
 from .declared import store_problems
 from .format import (
     StoreAttrs,
@@ -27,7 +27,6 @@ from .format import (
     z_problems,
 )
 from .masks import packed_width, unpack
-from .shard_reader import ShardReader
 
 T = TypeVar("T")
 _CHECKED = {"example_id": "example_ids", "source": "sources"}  # the Store attributes of text arrays

@@ -22,7 +22,7 @@ from .. import safe_json
 from ..errors import InputError, OdmsError, StoreError, StoreExistsError, StoreLockedError
 from ..interrupts import uninterrupted
 from ..outputs import DISK_FULL, Kind, Partial, check_replaceable, output_lock, refuse_existing, write_error
-from .backends import HDF5_MAGIC, Backend, detect_format, is_url, open_backend, url_filesystem
+from .backends import HDF5_MAGIC, Backend, MaskSink, detect_format, is_url, open_backend, url_filesystem
 from .format import (
     ARRAYS,
     ATTRS_KEY,
@@ -35,7 +35,6 @@ from .format import (
     shape_of,
 )
 from .masks import FrameStats, packed_width
-from .shard_writer import MaskSink
 
 
 @dataclass(frozen=True)

@@ -64,7 +64,7 @@ def test_stop_signal_prints_one_line(tmp_path, moment, signum):
 
 FINALIZER_GETS_THE_SIGNAL = """
 import os, signal, sys, time
-from odms_data.cli import _signals_interrupt
+from odms_data.interrupts import stops_interrupt
 
 class Finalized:
     def __del__(self):  # the signal comes while the finalizer runs; Python swallows what it raises
@@ -72,7 +72,7 @@ class Finalized:
         for _ in range(1000):
             pass
 
-with _signals_interrupt():
+with stops_interrupt():
     try:
         Finalized()
         time.sleep(30)

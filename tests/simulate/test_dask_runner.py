@@ -22,8 +22,8 @@ from odms_data.simulate.generate_store import generate
 from odms_data.simulate.params import preset
 from odms_data.simulate.shard_task import ShardTask
 from odms_data.simulate.shards import run_shard
+from odms_data.store.backends import MaskSink
 from odms_data.store.reader import open_store
-from odms_data.store.shard_writer import MaskSink
 from odms_data.store.validate import validate
 
 COUNT, SEED, PER_SHARD = 96, 11, 4  # 24 shards: enough tasks to kill a worker in the middle

@@ -8,8 +8,7 @@ import numpy as np
 import pytest
 import zarr
 
-from odms_data.store.shard_reader import ShardReader
-from odms_data.store.shard_writer import MaskSink
+from odms_data.store.backends import MaskSink, ShardReader
 from odms_data.store.writer import Layout, StoreWriter
 
 FRAMES, H, W, CHUNK, SHARD = 13, 9, 21, 3, 6  # 3 shards, the last with one chunk of 1 frame

@@ -117,6 +117,21 @@ def test_zarr_hdf5_round_trip_is_lossless(tmp_path, small_zarr):
             assert validate(str(path)).ok
 
 
+def test_a_users_own_sparse_array_reads_the_same_after_a_store_is_opened(tmp_path, small_zarr):
+    """odms-data's codecs (the bounded zstd, the refusal of a shard's missing chunk) apply to its
+    own stores only: a valid sparse array of the user's, its unwritten chunks read as the fill
+    value, reads the same before and after a store is opened and read through zarr."""
+    sparse = zarr.create_array(str(tmp_path / "sparse.zarr"), shape=(8,), shards=(8,), chunks=(2,),
+                               dtype="i4", fill_value=7)
+    sparse[0:2] = [1, 2]
+    before = zarr.open_array(str(tmp_path / "sparse.zarr"))[:]
+    with open_store(str(small_zarr)) as s:
+        assert s.backend.array("masks")[:].shape == (s.n_frames, s.height, (s.width + 7) // 8)
+        assert len(s.example_ids) == s.n_examples
+    after = zarr.open_array(str(tmp_path / "sparse.zarr"))[:]
+    assert before.tolist() == after.tolist() == [1, 2, 7, 7, 7, 7, 7, 7]
+
+
 def test_validate_accepts_a_good_store(small_zarr):
     report = validate(str(small_zarr))
     assert report.ok, report.problems

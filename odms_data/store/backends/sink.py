@@ -3,8 +3,8 @@
 zarr spends about twice the compression's own time on a full shard write (a fresh fill-value
 array and a copy per inner chunk, and an asyncio task per chunk). A shard task knows its chunks
 one by one, so it compresses each as soon as it is made and writes the shard's bytes at once:
-one file write for a local store (shard_layout.py; zarr is not even imported), one store call
-for a URL. zarr reads them as it reads its own (tests/store check it). HDF5 chunks are deflated
+one file write for a local store (zarr.py's ShardLayout; zarr is not even imported), one store
+call for a URL. zarr reads them as it reads its own (tests/store check it). HDF5 chunks are deflated
 the same way and handed back to the single writer. Workers reach the store through a `MaskSink`,
 which StoreWriter.mask_sink gives and StoreWriter.receive_masks completes.
 """
@@ -18,8 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .backends import BACKENDS, GZIP_LEVEL, ZSTD_LEVEL, storage_options
-from .shard_layout import ShardLayout, encode_index
+from .choose import BACKENDS
+from .common import GZIP_LEVEL, ZSTD_LEVEL, storage_options
+from .zarr import ShardLayout, encode_index, on_zarr_loop
 
 
 class ShardChunks:
@@ -60,14 +61,13 @@ class ShardChunks:
             partial.replace(target)  # whole or not at all, as zarr's own local writes
             return []
         import zarr
-        from zarr.core.buffer import default_buffer_prototype
-        from zarr.core.sync import sync
+        from zarr.buffer import default_buffer_prototype
 
         masks = zarr.open_array(store=path, path="masks", mode="r+", storage_options=storage_options(path))
         per_shard = masks.shards[0] // masks.chunks[0]  # type: ignore[index]  # masks is sharded
         key = masks.metadata.encode_chunk_key((start // masks.shards[0], 0, 0))  # type: ignore[index]
-        data = shard_bytes(self.chunks, per_shard)
-        sync(masks.store.set(f"{masks.path}/{key}", default_buffer_prototype().buffer.from_bytes(data)))
+        data = default_buffer_prototype().buffer.from_bytes(shard_bytes(self.chunks, per_shard))
+        on_zarr_loop(masks.store.set(f"{masks.path}/{key}", data))
         return []
 
 

@@ -1,0 +1,84 @@
+"""zarr's codecs as odms-data reads its own stores: a zstd chunk's decompression bounded by its
+chunk's size (common.py), and a shard that lacks one of its chunks refused as damage (a store
+is always written whole; zarr would read the chunk as zeros).
+
+`scoped(array)` is an array of an odms-data store opened for reading, with its codecs replaced by
+these; ZarrBackend applies it to every array it reads. Nothing is registered with zarr: every other
+array in the process reads with zarr's own codecs.
+"""
+
+from __future__ import annotations
+
+import itertools
+from contextvars import ContextVar
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+import zarr
+from zarr.codecs import ShardingCodec, ZstdCodec
+
+from ...errors import StoreError
+from .common import zstd_decode
+
+_wanted: ContextVar[frozenset | set] = ContextVar("wanted", default=frozenset())  # chunks a read needs
+
+
+@dataclass(frozen=True)
+class BoundedZstdCodec(ZstdCodec):
+    """zarr's zstd codec, decoding each chunk to no more than its chunk spec's size."""
+
+    def _decode_sync(self, chunk_bytes: Any, chunk_spec: Any) -> Any:
+        expected = int(np.prod(chunk_spec.shape)) * chunk_spec.dtype.to_native_dtype().itemsize
+        data = zstd_decode(chunk_bytes.as_numpy_array().data.cast("B"), expected)
+        return chunk_spec.prototype.buffer.from_bytes(data)
+
+
+class WholeShardCodec(ShardingCodec):
+    """zarr's sharding codec, refusing a read of a chunk that its shard's index lacks. Only the
+    chunks read are required: the last shard has none past the array's end."""
+
+    async def _decode_partial_single(self, byte_getter: Any, selection: Any, shard_spec: Any) -> Any:
+        token = _wanted.set(_chunks_read(selection, shard_spec.shape, self.chunk_shape))
+        try:
+            return await super()._decode_partial_single(byte_getter, selection, shard_spec)
+        finally:
+            _wanted.reset(token)
+
+    async def _decode_shard_index(self, *args: Any) -> Any:
+        index = await super()._decode_shard_index(*args)
+        for coords in sorted(_wanted.get()):
+            if index.get_chunk_slice(coords) is None:
+                k = int(np.ravel_multi_index(coords, index.offsets_and_lengths.shape[:-1]))
+                raise StoreError(f"chunk {k} of a shard is missing (a damaged store)")
+        return index
+
+
+def _chunks_read(selection: tuple, shard_shape: tuple[int, ...], chunk_shape: tuple[int, ...]) -> set:
+    """The coordinates of the inner chunks that `selection` (an int, slice or index array per axis)
+    of a shard touches; for a selection of points, the chunks of every combination of its axes."""
+    axes = [np.unique(np.arange(n)[s] // c).tolist() for s, n, c in zip(selection, shard_shape, chunk_shape,
+                                                                         strict=True)]
+    return set(itertools.product(*axes))
+
+
+def _bounded(codec: Any) -> Any:
+    """`codec` with zstd decoding bounded and missing shard chunks refused, at every depth."""
+    name = codec.to_dict()["name"]
+    if name == "zstd":
+        return BoundedZstdCodec(level=codec.level, checksum=codec.checksum)
+    if name == "sharding_indexed":
+        return WholeShardCodec(chunk_shape=codec.chunk_shape, codecs=[_bounded(c) for c in codec.codecs],
+                               index_codecs=[_bounded(c) for c in codec.index_codecs],
+                               index_location=codec.index_location)
+    return codec
+
+
+def scoped(array: zarr.Array | zarr.Group) -> zarr.Array:
+    """`array` (of an odms-data store, opened for reading) reading through the codecs above."""
+    if not isinstance(array, zarr.Array):
+        raise TypeError("a group, not an array")
+    meta: Any = array.metadata  # Zarr v3's: ZarrBackend opens v3 stores only
+    codecs = tuple(_bounded(c) for c in meta.codecs)
+    inner = array.async_array
+    return zarr.Array(zarr.AsyncArray(replace(meta, codecs=codecs), inner.store_path, inner.config))
