@@ -166,17 +166,24 @@ def _examples(p: BoxParams, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray, n
     box_noise = p.perturb and p.std_dev > 0
     cam_noise = p.perturb and p.cam_dev > 0
     n_normal = 4 * n * box_noise + 3 * (n - 1) * cam_noise
-    donor_at = k + (n_normal + 1) // 2  # the stream's draws after the example's own
+    at_normal = (k + 1) // 2  # the draws: uniforms, normals, then the donor's uniforms and normals
+    at_donor = at_normal + (n_normal + 1) // 2
     u = counter_draws.uniforms(keys, 0, k)
-    normal = counter_draws.normals(keys, k, n_normal)
-    boxes, pos = _boxes(p, u, normal[:4 * n] if box_noise else None)
+    normal = counter_draws.normals(keys, at_normal, n_normal)
     shuffled = np.flatnonzero(u[12] < p.shuffle) if p.perturb else np.zeros(0, np.int64)
-    if len(shuffled):
+    frame = np.zeros(0, np.int64)
+    b = len(keys)
+    noise = normal[:4 * n] if box_noise else None
+    if len(shuffled):  # the donors' boxes are made with the examples', as further columns
         dk = keys[shuffled]
-        frame = (counter_draws.uniforms(dk, donor_at, 1)[0] * n).astype(np.int64)
-        given, _ = _boxes(p, counter_draws.uniforms(dk, donor_at + 1, k),
-                          counter_draws.normals(dk, donor_at + 1 + k, 4 * n) if box_noise else None)
-        boxes[frame, :, shuffled] = given[frame, :, np.arange(len(shuffled))]
+        du = counter_draws.uniforms(dk, at_donor, k + 1)  # the frame, then the donor's uniforms
+        frame = (du[0] * n).astype(np.int64)
+        u = np.concatenate([u, du[1:]], axis=1)
+        if noise is not None:
+            noise = np.concatenate([noise, counter_draws.normals(dk, at_donor + (k + 2) // 2, 4 * n)], axis=1)
+    boxes, pos = _boxes(p, u, noise)
+    boxes[frame, :, shuffled] = boxes[frame, :, b + np.arange(len(shuffled))]
+    boxes, pos = boxes[..., :b], pos[..., :b]
     move = pos[-1:] - pos
     if cam_noise:
         move[:-1] += p.cam_dev * normal[n_normal - 3 * (n - 1):].reshape(n - 1, 3, -1)

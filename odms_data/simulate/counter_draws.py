@@ -7,14 +7,16 @@ SplitMix64's output function (Steele, Lea & Flood, OOPSLA 2014; Stafford's varia
 SplitMix64 is this with an added counter in place of the xor. The seed key folds the seed's
 64-bit words through mix64, so any non-negative integer seeds.
 
-Uniforms take a draw's top 53 bits, as NumPy's `random()` does. Normals come in pairs from one
-draw by Box-Muller: the top 32 bits give the radius (|x| at most 6.66), the low 24 the angle,
-whose cosine and sine are taken in float32 (the pair's direction to 1e-7; NumPy's float64
-trigonometry is twenty times slower and was most of a batch's time).
+Uniforms come in pairs from one draw, its two 32-bit halves (a resolution of 2^-32, 1e-10 m on
+the generator's scales). Normals come in pairs from one
+draw by Box-Muller, in float32 (each normal to about 1e-7; NumPy's float64 logarithm and
+trigonometry are many times slower and were most of a batch's time): the top 24 bits give the
+radius (|x| at most 5.9, which a normal passes once in 3e8), the low 24 the angle.
 """
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 
 import numpy as np
@@ -24,24 +26,27 @@ from ..errors import InputError
 GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 MUL_1, MUL_2 = np.uint64(0xBF58476D1CE4E5B9), np.uint64(0x94D049BB133111EB)
 SHIFTS = (np.uint64(30), np.uint64(27), np.uint64(31))
-TWO_53, TWO_32 = 2.0 ** -53, 2.0 ** -32
+TWO_32 = 2.0 ** -32
 
 
 def mix64(z: np.ndarray) -> np.ndarray:
-    """SplitMix64's output function of each uint64 of `z`, in place (z is returned)."""
+    """SplitMix64's output function of each uint64 of the array `z` (its products wrap modulo
+    2^64, silently for arrays), in place (z is returned)."""
     tmp = np.empty_like(z)
-    with np.errstate(over="ignore"):
-        for shift, mul in zip(SHIFTS, (MUL_1, MUL_2, None), strict=True):
-            np.right_shift(z, shift, out=tmp)
-            np.bitwise_xor(z, tmp, out=z)
-            if mul is not None:
-                np.multiply(z, mul, out=z)
+    for shift, mul in zip(SHIFTS, (MUL_1, MUL_2, None), strict=True):
+        np.right_shift(z, shift, out=tmp)
+        np.bitwise_xor(z, tmp, out=z)
+        if mul is not None:
+            np.multiply(z, mul, out=z)
     return z
 
 
+@functools.lru_cache(maxsize=64)
 def _counters(first: int, count: int) -> np.ndarray:
-    with np.errstate(over="ignore"):
-        return mix64(np.arange(first + 1, first + count + 1, dtype=np.uint64) * GOLDEN)
+    """(count, 1) uint64: the hashed counters of draws first .. first + count - 1 (read only)."""
+    c = mix64(np.arange(first + 1, first + count + 1, dtype=np.uint64) * GOLDEN)[:, None]
+    c.flags.writeable = False
+    return c
 
 
 def example_keys(seed: int, indices: Sequence[int] | np.ndarray) -> np.ndarray:
@@ -56,26 +61,35 @@ def example_keys(seed: int, indices: Sequence[int] | np.ndarray) -> np.ndarray:
         seed >>= 64
         if not seed:
             break
-    with np.errstate(over="ignore"):
-        return mix64(mix64((idx.astype(np.uint64) + np.uint64(1)) * GOLDEN) ^ key)
+    return mix64(mix64((idx.astype(np.uint64) + np.uint64(1)) * GOLDEN) ^ key)
 
 
 def draws(keys: np.ndarray, first: int, count: int) -> np.ndarray:
     """(count, B) uint64: draws first .. first + count - 1 of each key's stream, a row a draw."""
-    out = np.bitwise_xor(_counters(first, count)[:, None], keys)
-    return mix64(out)
+    return mix64(np.bitwise_xor(_counters(first, count), keys))
 
 
 def uniforms(keys: np.ndarray, first: int, count: int) -> np.ndarray:
-    """(count, B) float64 in [0, 1): draws first .. first + count - 1 as uniforms."""
-    return (draws(keys, first, count) >> np.uint64(11)) * TWO_53
+    """(count, B) float64 in [0, 1), multiples of 2^-32, from draws first .. first + ceil(count / 2) - 1:
+    each draw's top half, then its bottom half."""
+    d = draws(keys, first, (count + 1) // 2)
+    out = np.empty((2 * d.shape[0], len(keys)))
+    np.multiply(d >> np.uint64(32), TWO_32, out=out[0::2])
+    np.multiply(d & np.uint64(0xFFFFFFFF), TWO_32, out=out[1::2])
+    return out[:count]
 
 
 def normals(keys: np.ndarray, first: int, count: int) -> np.ndarray:
     """(count, B) float64 standard normals from draws first .. first + ceil(count / 2) - 1."""
     d = draws(keys, first, (count + 1) // 2)
-    radius = np.sqrt(-2.0 * np.log(((d >> np.uint64(32)) + 0.5) * TWO_32))
-    angle = ((d & np.uint64(0xFFFFFF)).astype(np.float32) * np.float32(2 * np.pi * 2.0 ** -24))
+    radius = (d >> np.uint64(40)).astype(np.float32)
+    radius += np.float32(0.5)
+    radius *= np.float32(2.0 ** -24)
+    np.log(radius, out=radius)
+    radius *= np.float32(-2)
+    np.sqrt(radius, out=radius)
+    angle = (d & np.uint64(0xFFFFFF)).astype(np.float32)
+    angle *= np.float32(2 * np.pi * 2.0 ** -24)
     out = np.empty((2 * d.shape[0], len(keys)))
     np.multiply(radius, np.cos(angle), out=out[0::2])
     np.multiply(radius, np.sin(angle), out=out[1::2])
