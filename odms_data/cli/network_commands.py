@@ -188,7 +188,9 @@ CHECKPOINTS = ("best", "last", "per-set")
 def predict(run, data, output, checkpoint, model, n_obs, workers, device, overwrite, as_json):
     """Predict d1 for every example of the stores with a trained run; the file `score` reads.
 
-    DBox predicts stores of boxes, and stores of masks through the box rule (docs/ODMD.md).
+    DBox predicts stores of boxes, and stores of masks through the box rule (docs/ODMD.md): there
+    each box is paired with its own camera movement, not as ODMD's converted sets pair them, so
+    its figures on the ODMS stores are not those of ODMD's odms_detection sets.
 
     \b
     Examples:

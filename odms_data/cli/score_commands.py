@@ -224,7 +224,8 @@ def _baseline(stores, data, output, overwrite, as_json, name, method, settings, 
         return
     for c in counts:
         echo_text(f"{c.split}: {c.examples} examples, {c.unsolvable} unsolvable (predicted 0), "
-                  f"{c.flagged} with {flagged} among the used observations")
+                  f"{c.ill_conditioned} ill-conditioned, {c.flagged} with {flagged} among the used "
+                  "observations")
     click.echo(f"wrote {output}: {n_rows} predictions ({name}, {how})")
 
 

@@ -12,7 +12,8 @@ With more than N observations, N evenly spaced ones are used, as VOS-DE uses the
 
 As in the authors' code: a box of zero width is a missing detection and takes the box of the
 nearest observation that has one (the farther one on a tie); an example whose A^T A is singular
-(e.g. no detection at all) is unsolvable and predicts 0.
+(e.g. no detection at all) is unsolvable and predicts 0; one solved with A^T A's condition number
+past 1 / eps (e.g. one detection in ten) keeps the authors' answer and is counted ill-conditioned.
 
 `odmd_conversion=True` reproduces how ODMD's converted ODMS sets read the masks (docs/ODMD.md):
 observations are ordered far to near and chosen by truncating `linspace` in that order; a robot
@@ -49,8 +50,9 @@ def fill_missing(boxes: np.ndarray, prefer_later: bool) -> np.ndarray:
     return out
 
 
-def solve(boxes: np.ndarray, move: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Batched Box_LS on (E, k, 4) boxes and (E, k) camera movements: (d1 estimates, unsolvable)."""
+def solve(boxes: np.ndarray, move: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Batched Box_LS on (E, k, 4) boxes and (E, k) camera movements: (d1 estimates, unsolvable,
+    ill-conditioned)."""
     E, k = move.shape
     w, h = boxes[..., 2], boxes[..., 3]
     A = np.zeros((E, 2 * k, 3))
@@ -66,11 +68,13 @@ def box_ls(store: Store, n_obs: int = DEFAULT_N_OBS, odmd_conversion: bool = Fal
         raise InputError(f"n_obs must be at least 2, got {n_obs}")
     counts = np.array([len(f) for f in chosen_frames(store, n_obs, odmd_conversion)], np.int64)
     E = store.n_examples
-    d1, unsolvable, missing = np.zeros(E), np.zeros(E, bool), np.zeros(E, bool)
+    d1, unsolvable, missing, ill = np.zeros(E), np.zeros(E, bool), np.zeros(E, bool), np.zeros(E, bool)
     for k in np.unique(counts):
         rows = np.flatnonzero(counts == k)
         ex = example_boxes(store, rows, n_obs, odmd_conversion)  # far first: fill from the farther
         missing[rows] = (ex.boxes[..., 2] == 0).any(axis=1)
-        d1[rows], unsolvable[rows] = solve(fill_missing(ex.boxes, prefer_later=False), ex.move[..., 2])
+        filled = fill_missing(ex.boxes, prefer_later=False)
+        d1[rows], unsolvable[rows], ill[rows] = solve(filled, ex.move[..., 2])
     d1[unsolvable] = 0.0
-    return BaselineResult(store.attrs.split, store.example_ids, d1, unsolvable, "missing_detections", missing)
+    return BaselineResult(store.attrs.split, store.example_ids, d1, unsolvable, "missing_detections",
+                          missing, ill)

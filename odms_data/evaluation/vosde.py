@@ -35,11 +35,11 @@ from .least_squares import first_unknown
 DEFAULT_N_OBS = 10
 
 
-def solve(sqrt_area: np.ndarray, dz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Batched VOS-DE on (E, k) arrays: (d1 estimates, unsolvable mask)."""
+def solve(sqrt_area: np.ndarray, dz: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Batched VOS-DE on (E, k) arrays: (d1 estimates, unsolvable, ill-conditioned)."""
     A = np.stack([sqrt_area, np.ones_like(sqrt_area)], axis=-1)  # (E, k, 2)
-    x0, bad = first_unknown(A, dz * sqrt_area)
-    return 0.0 - x0, bad  # not -x0: an unsolvable row stays 0.0, not -0.0
+    x0, bad, ill = first_unknown(A, dz * sqrt_area)
+    return 0.0 - x0, bad, ill  # not -x0: an unsolvable row stays 0.0, not -0.0
 
 
 def vosde(store: Store, n_obs: int = DEFAULT_N_OBS) -> BaselineResult:
@@ -50,13 +50,13 @@ def vosde(store: Store, n_obs: int = DEFAULT_N_OBS) -> BaselineResult:
     fi, counts = store.frame_index, store.n_obs
     z, largest = store.z, store.largest_area
     E = len(fi)
-    d1, unsolvable, empty = np.zeros(E), np.zeros(E, bool), np.zeros(E, bool)
+    d1, unsolvable, empty, ill = np.zeros(E), np.zeros(E, bool), np.zeros(E, bool), np.zeros(E, bool)
     for n in np.unique(counts):
         rows = np.flatnonzero(counts == n)
         frames = fi[rows][:, observation_columns(int(n), n_obs)]
         sqrt_area = np.sqrt(largest[frames].astype(np.float64))
         dz = z[frames] - z[fi[rows, 0]][:, None]
-        d1[rows], unsolvable[rows] = solve(sqrt_area, dz)
+        d1[rows], unsolvable[rows], ill[rows] = solve(sqrt_area, dz)
         empty[rows] = (largest[frames] == 0).any(axis=1)
     d1[unsolvable] = 0.0
-    return BaselineResult(store.attrs.split, store.example_ids, d1, unsolvable, "empty_masks", empty)
+    return BaselineResult(store.attrs.split, store.example_ids, d1, unsolvable, "empty_masks", empty, ill)

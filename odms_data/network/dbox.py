@@ -13,7 +13,8 @@ Input: (B, n_obs, 7) from loaders/box_transform.py, n_obs = 10.
 Parameters for n_obs = 10: LSTM 7*512 + 128*512 + 512 + 128*512 = 135,168; linears
 (128+70)*256 + 256 = 50,944, then five of (256+70)*256 + 256 = 83,712, then 257: 604,929 in all.
 The parameter names are the authors' (W, U, bias, V, linears.k), so their checkpoints load as
-they are.
+they are. The initial weights are the authors' too: W, U, bias and V from U(+-1/sqrt(128)), drawn in
+that order, then the linears with PyTorch's default; under one torch seed the two models start equal.
 """
 
 from __future__ import annotations
@@ -44,13 +45,13 @@ class DBox(nn.Module):
         self.U = nn.Parameter(torch.empty(hidden, 4 * hidden))
         self.bias = nn.Parameter(torch.empty(4 * hidden))
         self.V = nn.Parameter(torch.empty(hidden, 4 * hidden))
+        bound = 1 / math.sqrt(hidden)  # the authors' init_weights() runs here, before the linears
+        for p in (self.W, self.U, self.bias, self.V):  # exist: it draws the LSTM's alone, in this order
+            nn.init.uniform_(p, -bound, bound)
         seen = n_obs * FEATURES
-        widths = (hidden, *fcs)
+        widths = (hidden, *fcs)  # the linears keep PyTorch's default init, as the authors' do
         self.linears = nn.ModuleList([nn.Linear(a + seen, b) for a, b in zip(widths, fcs, strict=False)])
         self.linears.append(nn.Linear(fcs[-1], 1))
-        bound = 1 / math.sqrt(hidden)  # the authors draw every parameter, linears too, from U(-b, b)
-        for p in self.parameters():
-            nn.init.uniform_(p, -bound, bound)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         b, n, f = x.shape

@@ -1,5 +1,6 @@
 """Box examples as ODMD's released generator makes them (griffbr/ODMD, odmd/data_gen), each drawn
-from its own generator seeded by (seed, index) (seeding.py), so an example depends on nothing else.
+from its own counter-based stream keyed by (seed, index) (counter_draws.py), so an example depends
+on nothing else, and a batch is drawn in a few array operations.
 
 An object of width and height U(size_lim) m starts at depth U(z_lim) and at an x, y inside the
 field of view with room for the largest move; it moves by +-U(move_min, move_max) m per axis, the
@@ -11,7 +12,10 @@ With `perturb`: N(0, std_dev) on every box coordinate; a fraction `shuffle` of e
 frame's box replaced by another example's box of the same frame; N(0, cam_dev) m on every camera
 movement. ODMD shuffles within a batch (exactly int(shuffle * batch) examples, the donor another
 example of the batch). Here each example is shuffled with probability `shuffle` and its donor is
-a further example drawn from its own generator, so an example never depends on its batch.
+a further example drawn from its own stream, so an example never depends on its batch.
+
+BOX_GENERATOR_VERSION is what a generated store of boxes records as `generator.version`: 2 for
+these streams; version 1 (stores without the key) drew each example from its own PCG64.
 
 Per example: `boxes` (n, 4), `move` (n, 3) the object's displacement from each frame to the last
 (ODMD's camera movement; the last row 0), `depth` the object's depth at the last frame, float64.
@@ -25,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from .seeding import example_rngs
+from . import counter_draws
 
 
 @dataclass(frozen=True)
@@ -87,6 +91,10 @@ BOX_PRESETS = {
 }
 
 
+BOX_GENERATOR_VERSION = 2
+CHUNK = 1024  # examples made at a time
+
+
 def _n_uniforms(p: BoxParams) -> int:
     """Uniforms an example draws: 8 for start, move and size, 3 signs, the swap, the shuffle
     and 3 per intermediate position."""
@@ -94,33 +102,39 @@ def _n_uniforms(p: BoxParams) -> int:
 
 
 def _positions(p: BoxParams, u: np.ndarray) -> np.ndarray:
-    """(B, num_pos, 3) object positions x, y, z in camera coordinates, m, from uniforms u (B, k)."""
-    z0 = p.z_lim[0] + (p.z_lim[1] - p.z_lim[0]) * u[:, 0]
+    """(num_pos, 3, B) object positions x, y, z in camera coordinates, m, from uniforms u (k, B)."""
+    z0 = p.z_lim[0] + (p.z_lim[1] - p.z_lim[0]) * u[0]
     (xlo, xhi), (ylo, yhi) = p.x_range(z0), p.y_range(z0)
-    start = np.stack([xlo + u[:, 1] * (xhi - xlo), ylo + u[:, 2] * (yhi - ylo), z0], axis=1)
-    lo, hi = np.array(p.move_min), np.array(p.move_max)
-    sign = np.where(u[:, 8:11] < 0.5, -1.0, 1.0)
-    end = start + sign * (lo + (hi - lo) * u[:, 3:6])
+    start = np.stack([xlo + u[1] * (xhi - xlo), ylo + u[2] * (yhi - ylo), z0])
+    lo, hi = np.array(p.move_min)[:, None], np.array(p.move_max)[:, None]
+    end = start + np.where(u[8:11] < 0.5, -1.0, 1.0) * (lo + (hi - lo) * u[3:6])
     if p.end_swap:
-        swap = u[:, 11] < 0.5
-        start[swap], end[swap] = end[swap], start[swap].copy()
-    out = np.empty((len(u), p.num_pos, 3))
-    out[:, 0], out[:, -1] = start, end
-    along = np.sort(u[:, 13:].reshape(len(u), p.num_pos - 2, 3), axis=1)  # monotone from start to end
-    out[:, 1:-1] = start[:, None] + (end - start)[:, None] * along
+        swap = u[11] < 0.5
+        start, end = np.where(swap, end, start), np.where(swap, start, end)
+    out = np.empty((p.num_pos, 3, u.shape[1]))
+    out[0], out[-1] = start, end
+    along = np.sort(u[13:].reshape(p.num_pos - 2, 3, -1), axis=0)  # monotone from start to end
+    np.multiply(end - start, along, out=out[1:-1])
+    out[1:-1] += start
     return out
 
 
 def _boxes(p: BoxParams, u: np.ndarray, noise: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-    """(B, num_pos, 4) boxes, with the box noise when given, and the positions they project."""
+    """(num_pos, 4, B) boxes, with the box noise (4 num_pos, B) when given, and the positions
+    (num_pos, 3, B) they project."""
     pos = _positions(p, u)
-    size = p.size_lim[0] + (p.size_lim[1] - p.size_lim[0]) * u[:, 6:8]
     h, w = p.image_dim
-    z = pos[:, :, 2]
-    boxes = np.stack([pos[:, :, 0] * (p.fx / w) / z + p.cx / w, pos[:, :, 1] * (p.fy / h) / z + p.cy / h,
-                      size[:, :1] * (p.fx / w) / z, size[:, 1:] * (p.fy / h) / z], axis=2)
+    inv_z = 1 / pos[:, 2]
+    boxes = np.empty((p.num_pos, 4, u.shape[1]))
+    np.multiply(pos[:, 0] * (p.fx / w), inv_z, out=boxes[:, 0])
+    np.multiply(pos[:, 1] * (p.fy / h), inv_z, out=boxes[:, 1])
+    boxes[:, 0] += p.cx / w
+    boxes[:, 1] += p.cy / h
+    size = p.size_lim[0] + (p.size_lim[1] - p.size_lim[0]) * u[6:8]
+    np.multiply(size[0] * (p.fx / w), inv_z, out=boxes[:, 2])
+    np.multiply(size[1] * (p.fy / h), inv_z, out=boxes[:, 3])
     if noise is not None:
-        boxes += p.std_dev * noise.reshape(len(u), p.num_pos, 4)
+        boxes += p.std_dev * noise.reshape(p.num_pos, 4, -1)
     return boxes, pos
 
 
@@ -128,29 +142,49 @@ def sample_box_examples(p: BoxParams, seed: int, indices: Sequence[int] | np.nda
                         ) -> dict[str, np.ndarray]:
     """The examples at generator `indices` of (p, seed): `boxes` (B, n, 4), `move` (B, n, 3),
     `depth` (B,) and each frame's true depth `frame_depth` (B, n), float64; each depends only on
-    (p, seed, its index). Each example's generator gives, in order: its uniforms, its normals
-    (with `perturb`: box noise then camera noise), and when shuffled the frame and the donor's
-    uniforms and box noise."""
-    rngs = example_rngs(seed, [int(i) for i in indices])
+    (p, seed, its index). Each example's stream gives, in order: its uniforms, its normals (with
+    `perturb`: box noise then camera noise), and when shuffled the frame, the donor's uniforms
+    and box noise. Made CHUNK examples at a time, one array row a draw, so that the arrays stay
+    in the cache and each step runs along a contiguous row."""
+    keys = counter_draws.example_keys(seed, indices)
+    b, n = len(keys), p.num_pos
+    out = {"boxes": np.empty((b, n, 4)), "move": np.empty((b, n, 3)), "depth": np.empty(b),
+           "frame_depth": np.empty((b, n))}
+    for i in range(0, b, CHUNK):
+        boxes, pos, move = _examples(p, keys[i:i + CHUNK])
+        out["boxes"][i:i + CHUNK] = boxes.transpose(2, 0, 1)
+        out["move"][i:i + CHUNK] = move.transpose(2, 0, 1)
+        out["frame_depth"][i:i + CHUNK] = pos[:, 2].T
+    out["depth"][:] = out["frame_depth"][:, -1]
+    return out
+
+
+def _examples(p: BoxParams, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The boxes (n, 4, B), positions (n, 3, B) and movements (n, 3, B) of the examples of stream
+    `keys`."""
     n, k = p.num_pos, _n_uniforms(p)
     box_noise = p.perturb and p.std_dev > 0
     cam_noise = p.perturb and p.cam_dev > 0
     n_normal = 4 * n * box_noise + 3 * (n - 1) * cam_noise
-    u = np.empty((len(rngs), k))
-    normal = np.empty((len(rngs), n_normal))
-    donors: list[tuple[int, int, np.ndarray, np.ndarray]] = []  # example, frame, uniforms, box noise
-    for i, rng in enumerate(rngs):
-        u[i] = rng.random(k)
-        normal[i] = rng.standard_normal(n_normal)
-        if p.perturb and p.shuffle > 0 and u[i, 12] < p.shuffle:
-            donors.append((i, int(rng.integers(n)), rng.random(k), rng.standard_normal(4 * n * box_noise)))
-    boxes, pos = _boxes(p, u, normal[:, :4 * n] if box_noise else None)
-    if donors:
-        given, _ = _boxes(p, np.array([d[2] for d in donors]),
-                          np.array([d[3] for d in donors]) if box_noise else None)
-        for (i, frame, _, _), b in zip(donors, given, strict=True):
-            boxes[i, frame] = b[frame]
-    move = pos[:, -1:] - pos
+    at_normal = (k + 1) // 2  # the draws: uniforms, normals, then the donor's uniforms and normals
+    at_donor = at_normal + (n_normal + 1) // 2
+    u = counter_draws.uniforms(keys, 0, k)
+    normal = counter_draws.normals(keys, at_normal, n_normal)
+    shuffled = np.flatnonzero(u[12] < p.shuffle) if p.perturb else np.zeros(0, np.int64)
+    frame = np.zeros(0, np.int64)
+    b = len(keys)
+    noise = normal[:4 * n] if box_noise else None
+    if len(shuffled):  # the donors' boxes are made with the examples', as further columns
+        dk = keys[shuffled]
+        du = counter_draws.uniforms(dk, at_donor, k + 1)  # the frame, then the donor's uniforms
+        frame = (du[0] * n).astype(np.int64)
+        u = np.concatenate([u, du[1:]], axis=1)
+        if noise is not None:
+            noise = np.concatenate([noise, counter_draws.normals(dk, at_donor + (k + 2) // 2, 4 * n)], axis=1)
+    boxes, pos = _boxes(p, u, noise)
+    boxes[frame, :, shuffled] = boxes[frame, :, b + np.arange(len(shuffled))]
+    boxes, pos = boxes[..., :b], pos[..., :b]
+    move = pos[-1:] - pos
     if cam_noise:
-        move[:, :-1] += p.cam_dev * normal[:, n_normal - 3 * (n - 1):].reshape(len(rngs), n - 1, 3)
-    return {"boxes": boxes, "move": move, "depth": pos[:, -1, 2].copy(), "frame_depth": pos[:, :, 2].copy()}
+        move[:-1] += p.cam_dev * normal[n_normal - 3 * (n - 1):].reshape(n - 1, 3, -1)
+    return boxes, pos, move

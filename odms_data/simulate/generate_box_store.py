@@ -12,7 +12,7 @@ import numpy as np
 from ..errors import InputError
 from ..store.box_store import BoxRows, write_box_store
 from ..store.format import StoreAttrs
-from .box_examples import BOX_PRESETS, sample_box_examples
+from .box_examples import BOX_GENERATOR_VERSION, BOX_PRESETS, sample_box_examples
 
 BLOCK = 16384  # examples sampled at a time
 
@@ -39,6 +39,7 @@ def generate_box_store(path: str, count: int, preset: str, seed: int, *, split: 
                    [f"{split}/{k:07d}" for k in range(count)], ["generated"] * count)
     params = {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(p).items()}
     attrs = StoreAttrs(split=split, domain="generated", image_size=p.image_dim, counts={},
-                       generator={"preset": preset, "params": params, "seed": seed})
+                       generator={"version": BOX_GENERATOR_VERSION, "preset": preset, "params": params,
+                                  "seed": seed})
     write_box_store(path, rows, attrs, fmt, overwrite=overwrite)
     return attrs

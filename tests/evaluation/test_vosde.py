@@ -68,7 +68,8 @@ def test_singular_systems_predict_zero_and_are_counted(tmp_path):
     out = tmp_path / "p.csv"
     res = CliRunner().invoke(main, ["baseline", "vosde", path, "-o", str(out)])
     assert res.exit_code == 0, res.output
-    assert "degenerate: 3 examples, 2 unsolvable (predicted 0), 2 with an empty mask" in res.stdout
+    assert ("degenerate: 3 examples, 2 unsolvable (predicted 0), 0 ill-conditioned, 2 with an empty "
+            "mask") in res.stdout
     res = CliRunner().invoke(main, ["score", str(out), "--data", path, "--json"])
     assert res.exit_code == 0, res.output
 
@@ -76,7 +77,8 @@ def test_singular_systems_predict_zero_and_are_counted(tmp_path):
 def test_solve_matches_numpy_least_squares():
     rng = np.random.default_rng(0)
     s, dz = rng.uniform(10, 200, (50, 10)), np.sort(rng.uniform(0, 0.5, (50, 10)), axis=1)
-    d1, bad = solve(s, dz)
+    d1, bad, ill = solve(s, dz)
+    assert not bad.any() and not ill.any()
     for i in range(50):
         A = np.stack([s[i], np.ones(10)], axis=1)
         x, *_ = np.linalg.lstsq(A, dz[i] * s[i], rcond=None)
@@ -101,7 +103,7 @@ def test_stored_statistics_give_the_same_estimates_as_decoding_masks(tmp_path):
             ex = s.example(i)
             areas = np.array([mask_stats(m)[1] for m in ex.masks], np.float64)
             cols = observation_columns(ex.n, 5)
-            d1, _ = solve(np.sqrt(areas[cols])[None], (ex.z[cols] - ex.z[0])[None])
+            d1, _, _ = solve(np.sqrt(areas[cols])[None], (ex.z[cols] - ex.z[0])[None])
             assert fast.d1[i] == pytest.approx(d1[0], rel=1e-12)
 
 

@@ -32,6 +32,27 @@ def test_state_dict_names_and_shapes_are_the_authors():
     assert {k: tuple(v.shape) for k, v in DBox().state_dict().items()} == expected_shapes()
 
 
+def test_initial_weights_are_the_authors():
+    # The authors' DBox.__init__ (dbox/dbox.py) makes W, U, bias, V, calls init_weights(), which
+    # draws every parameter existing so far from U(+-1/sqrt(hidden)), and only then makes the
+    # linears, which keep PyTorch's default init. Their draws, in their order, under one seed:
+    torch.manual_seed(3)
+    lstm = [torch.empty(7, 512), torch.empty(128, 512), torch.empty(512), torch.empty(128, 512)]
+    for t in lstm:
+        t.uniform_(-1 / 128 ** 0.5, 1 / 128 ** 0.5)
+    linears = [torch.nn.Linear(198, 256), *(torch.nn.Linear(326, 256) for _ in range(5)),
+               torch.nn.Linear(256, 1)]
+    theirs = dict(zip(["W", "U", "bias", "V"], lstm, strict=True))
+    for k, layer in enumerate(linears):
+        theirs[f"linears.{k}.weight"], theirs[f"linears.{k}.bias"] = layer.weight, layer.bias
+    torch.manual_seed(3)
+    ours = DBox().state_dict()
+    assert list(ours) == list(theirs)
+    assert all(torch.equal(ours[k], theirs[k]) for k in ours)
+    # PyTorch's default bound for a linear, 1/sqrt(fan_in), not the LSTM's 1/sqrt(128)
+    assert 0.9 / 326 ** 0.5 < ours["linears.3.weight"].abs().max() <= 1 / 326 ** 0.5
+
+
 def _sigmoid(a):
     return 1 / (1 + np.exp(-a))
 

@@ -13,14 +13,23 @@ ODMD = BOX_PRESETS["odmd"]
 
 def test_an_example_depends_only_on_seed_and_index():
     whole = sample_box_examples(ODMD, 3, range(40))
-    parts = [sample_box_examples(ODMD, 3, [i]) for i in (39, 0, 17)]  # single draws: NumPy's own seeding
-    mixed = sample_box_examples(ODMD, 3, [17, 100, 0, 39, 5, 6, 7, 8, 9])  # batched seeding
+    parts = [sample_box_examples(ODMD, 3, [i]) for i in (39, 0, 17)]
+    mixed = sample_box_examples(ODMD, 3, [17, 100, 0, 39, 5, 6, 7, 8, 9])
     for key in whole:
         np.testing.assert_array_equal(parts[0][key][0], whole[key][39])
         np.testing.assert_array_equal(parts[1][key][0], whole[key][0])
         np.testing.assert_array_equal(mixed[key][[0, 2, 3]], whole[key][[17, 0, 39]])
     other = sample_box_examples(ODMD, 4, range(40))
     assert not np.array_equal(other["boxes"], whole["boxes"])
+
+
+def test_examples_across_chunks_are_those_made_alone(monkeypatch):
+    import odms_data.simulate.box_examples as box_examples
+
+    whole = sample_box_examples(ODMD, 5, range(50))
+    monkeypatch.setattr(box_examples, "CHUNK", 7)  # 50 examples in 8 chunks, the last short
+    for key, value in sample_box_examples(ODMD, 5, range(50)).items():
+        np.testing.assert_array_equal(value, whole[key])
 
 
 def test_unperturbed_boxes_are_the_projection():

@@ -29,6 +29,7 @@ def test_example_k_is_the_generators_k_in_any_store_and_through_the_stream(tmp_p
     stream = GeneratedBoxExamples(BOX_PRESETS["odmd"], seed=5)
     with open_store(small) as s, open_store(big) as b:
         assert s.kind == b.kind == "boxes" and s.attrs.generator["preset"] == "odmd"
+        assert s.attrs.generator_version == 2  # the counter-based streams
         ex_s, ex_b = example_boxes(s, range(7)), example_boxes(b, range(7))
         np.testing.assert_array_equal(ex_s.boxes, ex_b.boxes)
         np.testing.assert_array_equal(ex_s.move, ex_b.move)
