@@ -9,6 +9,12 @@ import json
 from pathlib import Path
 
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
+ASV = Path(__file__).resolve().parents[1] / "asv_bench" / "benchmarks"
+MOVED_TO_ASV = {
+    "generate.py": "generate.py", "write_rule.py": "generate.py", "stream.py": "loaders.py",
+    "validate.py": "stores.py", "startup.py": "startup.py",
+}
+"""Scripts whose measurement asv_bench/ now makes; their last JSON stays as the published record."""
 
 
 def _renderer():
@@ -28,7 +34,8 @@ def test_every_result_names_its_machine_date_commit_and_baseline():
     assert files
     for path in files:
         r = json.loads(path.read_text())
-        assert (BENCHMARKS / Path(r["script"]).name).is_file(), path
+        script = Path(r["script"]).name
+        assert (BENCHMARKS / script).is_file() or (ASV / MOVED_TO_ASV[script]).is_file(), path
         assert r["machine"]["cores"] >= 1 and r["machine"]["cpu_model"], path
         assert r["date"][:2] == "20" and r["commit"], path
         assert {"what", "value", "unit"} <= set(r["baseline"]), path

@@ -1,0 +1,1 @@
+"""odms-data's speed benchmarks for airspeed velocity (asv); see docs/DEVELOPING.md, Benchmarks."""
