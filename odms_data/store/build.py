@@ -23,7 +23,7 @@ from collections.abc import Callable, Generator, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import closing, contextmanager
 from dataclasses import dataclass, field
-from typing import Any, TypeVar
+from typing import Any, Self, TypeVar
 
 import numpy as np
 
@@ -145,13 +145,13 @@ def counting(step: Callable[[int], None]) -> Progress:
 
 
 def layout_for(s: Sizes) -> Layout:
-    """The chunking policy: a store of boxes in large chunks of rows; a store of masks in shards
-    of whole chunks of `frames_per_chunk`, one shard per task, its example rows chunked as the
-    tasks make them (or EXAMPLE_ROWS at a time)."""
+    """The chunking policy: a chunk of every array per task, its frames in shards of whole chunks
+    of `frames_per_chunk` masks; a store of boxes in at most BOX_ROWS rows a chunk; example rows
+    known before the tasks EXAMPLE_ROWS a chunk."""
     F, E = s.n_frames, s.n_examples
     if s.kind == "boxes":
-        fpc = fps = min(F, BOX_ROWS)
-        epc = min(E, BOX_ROWS)
+        fpc = fps = min(F, s.frames_per_task, BOX_ROWS)
+        epc = min(E, s.examples_per_task or BOX_ROWS)
     else:
         fpc = min(s.frames_per_chunk, F)
         fps = max(fpc, s.frames_per_task // fpc * fpc)
@@ -201,7 +201,7 @@ class Workers:
             return cls(scheduler=scheduler)
         return cls(min(workers or workers_for(work_s, cores()), tasks))
 
-    def __enter__(self) -> Workers:
+    def __enter__(self) -> Self:
         if self.n > 1 and self.scheduler is None:
             self.pool = worker_pool(self.n, _silence_worker if self.quiet else None)
         return self
