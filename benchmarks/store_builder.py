@@ -6,7 +6,7 @@ in a subprocess, with this tree's package or the one at PATH first on the path, 
 (before, after, before, ...) so that a load that drifts affects both alike; the median wall time
 of `--repeat` runs is reported. The commands: `generate` of masks (standard preset, 480x640,
 n = 10, 50 examples a task) on 2 local workers; `generate --boxes` (before: always in one
-process; after: one worker, and the default, as many workers as the work is worth); `import
+process; after: in one process, the default, and on 2 workers); `import
 recording` of a recording of PNG masks on 2 workers; `convert` of the generated store to HDF5;
 and `generate` of masks on a Dask LocalCluster of 2 single-threaded worker processes against 2
 local workers (the cluster started once, beforehand, as a real cluster is). Each command's
@@ -70,7 +70,7 @@ def main() -> None:
     commands = {  # name: (before's arguments, after's arguments)
         "generate masks, 2 workers": ([*gen, "--workers", "2"],) * 2,
         "generate --boxes, one worker": (box, [*box, "--workers", "1"]),
-        "generate --boxes, default workers": (box, box),
+        "generate --boxes, 2 workers (before: one)": (box, [*box, "--workers", "2"]),
         "import recording, 2 workers": (["import", "recording", str(masks), "--positions", str(csv), "-o",
                                          "r.zarr", "--windows", "10", "--overwrite", "--workers", "2"],) * 2,
         "convert Zarr to HDF5": (["convert", str(src), "c.h5", "--overwrite"],) * 2,

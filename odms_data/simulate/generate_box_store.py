@@ -18,7 +18,6 @@ from ..store.shard_writer import MaskSink
 from ..store.writer import Layout
 from .box_examples import BOX_PRESETS, DEFAULT_BOX_EXAMPLES_PER_SHARD, BoxParams, sample_box_examples
 
-EXAMPLE_S = 3e-4  # CPU-seconds per example of 10 frames (to choose the workers)
 SOURCE = "generated"
 
 
@@ -91,8 +90,9 @@ def generate_box_store(path: str, count: int, preset: str, seed: int, *, split: 
                        examples_per_shard: int = DEFAULT_BOX_EXAMPLES_PER_SHARD, scheduler: str | None = None
                        ) -> StoreAttrs:
     """Write `count` examples of box preset `preset` and `seed` as a store of boxes at `path`,
-    `examples_per_shard` per task, on `workers` local processes (by default as many as the work is
-    worth) or on the Dask cluster of `scheduler`; the store is the same either way."""
+    `examples_per_shard` per task, on `workers` local processes (by default none: sampling is
+    cheaper than starting workers, whose fork server loads the mask renderer) or on the Dask cluster
+    of `scheduler`; the store is the same either way."""
     if preset not in BOX_PRESETS:
         raise InputError(f"unknown box preset '{preset}'; the presets are {', '.join(BOX_PRESETS)}")
     if count < 1 or seed < 0:
@@ -102,6 +102,6 @@ def generate_box_store(path: str, count: int, preset: str, seed: int, *, split: 
                          f"and {workers}")
     source = GeneratedBoxes(count, preset, seed, split, min(examples_per_shard, count))
     tasks = -(-count // source.per_task)
-    with Workers.for_work(count * EXAMPLE_S, tasks, workers, scheduler) as runners:
+    with Workers.for_work(0.0, tasks, workers, scheduler) as runners:
         return build(source, path, fmt, workers=runners, overwrite=overwrite,
                      progress=counting(progress) if progress else None)
