@@ -9,7 +9,7 @@ import click
 from .. import safe_json
 from ..errors import InputError
 from ..extras import optional
-from ..simulate.box_examples import BOX_PRESETS
+from ..simulate.box_examples import BOX_PRESETS, DEFAULT_BOX_EXAMPLES_PER_SHARD
 from ..simulate.params import (
     DEFAULT_EXAMPLES_PER_SHARD,
     PRESETS,
@@ -64,12 +64,13 @@ def _split_recipe(split_name: str, given: list[str]):
 @click.option("--workers", type=click.IntRange(min=1), default=None,
               help="Worker processes (default: as many as the work is worth, up to all cores; "
                    "a run of fewer than ~3,000 480x640 examples uses one, in-process).")
-@click.option("--examples-per-shard", type=click.IntRange(min=1),
-              default=DEFAULT_EXAMPLES_PER_SHARD, show_default=True,
-              help="Examples per shard (one task each); does not change the content.")
+@click.option("--examples-per-shard", type=click.IntRange(min=1), default=None,
+              help=f"Examples per shard (one task each); does not change the content (default: "
+                   f"{DEFAULT_EXAMPLES_PER_SHARD}, with --boxes {DEFAULT_BOX_EXAMPLES_PER_SHARD}).")
 @click.option("--boxes", "box_preset", type=click.Choice(list(BOX_PRESETS)), default=None,
               help="Write a store of boxes (ODMD's kind) from the box generator with this preset, "
-                   "rather than masks; takes -n, --seed, --name, -o, --format.")
+                   "rather than masks; takes -n, --seed, --name, -o, --format, --workers, "
+                   "--examples-per-shard and --scheduler.")
 @click.option("--overwrite", is_flag=True, help="Replace an existing store.")
 @click.option("--json", "as_json", is_flag=True, help="Print what was written as JSON.")
 @click.option("--scheduler", metavar="ADDRESS", default=None,
@@ -87,14 +88,17 @@ def generate(split_name, count, preset, seed, n_obs, params, store_split, output
       odms-data generate -n 2560000 --scheduler tcp://head:8786 -o s3://lab/odms/train.zarr
       odms-data generate -n 10000 --boxes odmd --seed 3 -o odmd-train.zarr
     """
+    if scheduler and workers is not None:
+        raise InputError("--workers and --scheduler exclude each other; the cluster has its own workers")
+    if scheduler:
+        optional("distributed", "odms-data generate --scheduler")  # before the store is begun
     if box_preset:
-        given = {"--split": split_name, "--preset": preset, "--n-obs": n_obs, "--param": params,
-                 "--workers": workers, "--scheduler": scheduler}
+        given = {"--split": split_name, "--preset": preset, "--n-obs": n_obs, "--param": params}
         _generate_boxes(box_preset, count, seed, store_split, output, fmt, overwrite, as_json,
-                        [o for o, v in given.items() if v])
+                        [o for o, v in given.items() if v], workers, examples_per_shard, scheduler)
         return
     _generate_masks(split_name, count, preset, seed, n_obs, params, store_split, output, fmt, workers,
-                    examples_per_shard, overwrite, as_json, scheduler)
+                    examples_per_shard or DEFAULT_EXAMPLES_PER_SHARD, overwrite, as_json, scheduler)
 
 
 def _generate_masks(split_name, count, preset, seed, n_obs, params, store_split, output, fmt, workers,
@@ -104,10 +108,6 @@ def _generate_masks(split_name, count, preset, seed, n_obs, params, store_split,
     from ..store.format import store_path
     from ..store.manifests import check_against_manifest
 
-    if scheduler and workers is not None:
-        raise InputError("--workers and --scheduler exclude each other; the cluster has its own workers")
-    if scheduler:
-        optional("distributed", "odms-data generate --scheduler")  # before the store is begun
     overrides = _parse_param(params)
     manifest = None
     if split_name:
@@ -143,20 +143,24 @@ def _generate_masks(split_name, count, preset, seed, n_obs, params, store_split,
         click.echo(f"digest matches splits/{split_name}.json")
 
 
-def _generate_boxes(preset, count, seed, split, output, fmt, overwrite, as_json, given):
+def _generate_boxes(preset, count, seed, split, output, fmt, overwrite, as_json, given, workers,
+                    examples_per_shard, scheduler):
     """`generate --boxes PRESET`: a store of boxes from the box generator."""
     from ..simulate.generate_box_store import generate_box_store
     from ..store.format import store_path
 
     if given:
-        raise InputError(f"--boxes takes -n, --seed, --name, -o and --format, not {given[0]}")
+        raise InputError(f"--boxes takes -n, --seed, --name, -o, --format, --workers, --examples-per-shard "
+                         f"and --scheduler, not {given[0]}")
     if count is None:
         raise InputError("give -n COUNT with --boxes")
     split = split or "generated"
     output = output or str(store_path(".", split, "hdf5" if fmt == "hdf5" else "zarr"))
     with progress(count, f"generating {output}") as update:
         attrs = generate_box_store(output, count, preset, seed or 0, split=split, fmt=fmt,
-                                   overwrite=overwrite, progress=update)
+                                   overwrite=overwrite, progress=update, workers=workers,
+                                   examples_per_shard=examples_per_shard or DEFAULT_BOX_EXAMPLES_PER_SHARD,
+                                   scheduler=scheduler)
     if as_json:
         echo_json({"output": output, "split": split, "examples": count, "boxes": preset, "seed": seed or 0,
                    "digest": attrs.digest})

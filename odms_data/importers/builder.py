@@ -1,48 +1,20 @@
-"""The front door of every importer: an `Importer` plans its store, and the base writes it (a
-store of masks with mask_store.py, a store of boxes with store/box_store.py), drops bad sources
-and retries, reports one progress signature and answers with one `ImportResult`.
+"""The front door of every importer: an `Importer` plans its store, and the base has the store
+builder (store/build.py) write it (a store of masks from mask_store.py's source, a store of boxes
+from store/box_store.py's), drops bad sources and retries, and answers with one `ImportResult`.
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Callable
 from pathlib import Path
 
-from ..store.box_store import write_box_store
+from ..store.box_store import BoxRowsSource
+from ..store.build import BadFiles, Progress, Source, build
 from ..store.format import StoreAttrs
 from .decoding import Workers
-from .mask_store import BadFiles, write_mask_store
+from .mask_store import ImportedMasks
 from .plan import BoxPlan, MaskPlan
 from .result import ImportResult
-
-Progress = Callable[[str, int, int], None]  # (label, done, total): every importer's progress
-
-
-def _counter(label: str, total: int, progress: Progress | None) -> Callable[[int], None] | None:
-    """A step function that adds up the frames written and reports them under `label`."""
-    if progress is None:
-        return None
-    done = 0
-
-    def step(k: int) -> None:
-        nonlocal done
-        done += k
-        progress(label, done, total)
-
-    return step
-
-
-def _write_boxes(plan: BoxPlan, out: str | Path, fmt: str | None, overwrite: bool,
-                 step: Callable[[int], None] | None, check: Callable[[StoreAttrs], None]) -> StoreAttrs:
-    """Write a store of boxes: nothing to decode, so the format's rules and `check` run before
-    anything is written, and the frames are counted once they are."""
-    attrs = StoreAttrs(split=plan.split, domain=plan.domain, image_size=plan.image_size, counts={},
-                       source=plan.source, oddities=list(plan.oddities))
-    write_box_store(str(out), plan.rows, attrs, fmt, overwrite=overwrite, check=check)
-    if step:
-        step(plan.n_frames)
-    return attrs
 
 
 class Importer(ABC):
@@ -74,15 +46,18 @@ class Importer(ABC):
         frame's source is dropped and the store planned and written again."""
         while True:
             plan = self.plan()
-            step = _counter(label or plan.split, plan.n_frames, progress)
+            source: Source
             if isinstance(plan, BoxPlan):
-                return ImportResult(str(out), plan.split, _write_boxes(plan, out, fmt, overwrite, step,
-                                                                       self.check))
+                attrs = StoreAttrs(split=plan.split, domain=plan.domain, image_size=plan.image_size,
+                                   counts={}, source=plan.source, oddities=list(plan.oddities))
+                source = BoxRowsSource(str(out), plan.rows, attrs, self.check)
+            else:
+                source = ImportedMasks(plan, self.skip_bad, self.check)
             try:
-                attrs = write_mask_store(plan, out, fmt, workers or Workers(1), overwrite=overwrite,
-                                         collect_all=self.skip_bad, progress=step, check=self.check)
+                attrs = build(source, str(out), fmt, workers=workers or Workers(1), overwrite=overwrite,
+                              label=label or plan.split, progress=progress)
                 return ImportResult(str(out), plan.split, attrs)
             except BadFiles as e:
-                if not self.skip_bad:
+                if not self.skip_bad or not isinstance(plan, MaskPlan):
                     raise
                 self.drop(plan, e.failures)

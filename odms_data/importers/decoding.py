@@ -1,32 +1,25 @@
 """Decoding masks on worker processes: one shard-aligned range of frames per task.
 
 A task reads (`MaskSource.read`), checks and packs its masks, computes their statistics and frame digests, and
-writes them into their shard (Zarr) or returns deflated chunks (HDF5); a bad file becomes a
-failure in the result instead. libpng and libjpeg print their own complaints on stderr, which is
-silenced while they decode.
+writes them into their shard (Zarr) or returns deflated chunks (HDF5), as the store builder's
+`Rows`; a bad file becomes a failure in the result instead. libpng and libjpeg print their own
+complaints on stderr, which is silenced while they decode.
 """
 
 from __future__ import annotations
 
-import os
-import sys
-from collections.abc import Callable, Iterable, Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor
-from contextlib import AbstractContextManager, contextmanager
-from dataclasses import dataclass, field
-from typing import TypeVar
+from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..errors import InputError
-from ..parallel import cores, end_pool, pool_map, worker_pool
+from ..store import build
 from ..store.backends import MaskSink
+from ..store.build import Rows
 from ..store.digest import frame_digests
 from ..store.masks import FrameStats, pack, packed_width
 from .plan import MaskSource
-
-Item = TypeVar("Item")
-Result = TypeVar("Result")
 
 
 @dataclass
@@ -43,22 +36,13 @@ class FrameTask:
     collect_all: bool
 
 
-@dataclass
-class FrameResult:
-    start: int
-    stats: FrameStats = field(default_factory=lambda: FrameStats.empty(0))  # both set when no file failed
-    digests: np.ndarray = field(default_factory=lambda: np.empty((0, 32), np.uint8))
-    returned_masks: list[bytes] = field(default_factory=list)  # for StoreWriter.receive_masks
-    failures: list[tuple[int, str]] = field(default_factory=list)
-
-
-def run_frames(task: FrameTask) -> FrameResult:
+def run_frames(task: FrameTask) -> Rows:
     """Read, check, pack and write one shard's masks; failures instead when a source is bad."""
     H, W = task.size
     k = len(task.masks)
     packed = np.zeros((k, H, packed_width(W)), np.uint8)
     stats = FrameStats.empty(k)
-    result = FrameResult(task.start)
+    result = Rows(task.start)
     done: dict[int, int] = {}  # a source repeated within the task (the same object) is read once
     for i, f in enumerate(task.masks):
         if id(f) in done:
@@ -77,67 +61,16 @@ def run_frames(task: FrameTask) -> FrameResult:
         done[id(f)] = i
     if result.failures:
         return result
-    result.stats, result.digests = stats, frame_digests(packed, task.z, task.depth)
+    result.frames = {"z": task.z, "depth": task.depth, "area": stats.area, "largest_area": stats.largest_area,
+                     "bbox": stats.bbox}
+    result.frame_digests = frame_digests(packed, task.z, task.depth)
     result.returned_masks = task.sink.write_packed(task.start, packed)
     return result
 
 
-@contextmanager
-def _quiet_stderr() -> Iterator[None]:
-    """Silence file descriptor 2: libpng and libjpeg print their own complaints there."""
-    sys.stderr.flush()
-    saved = os.dup(2)
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    try:
-        os.dup2(devnull, 2)
-        yield
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
-        os.close(devnull)
-
-
-def _silence_worker() -> None:
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    os.dup2(devnull, 2)
-
-
-class Workers:
-    """A pool of decoding processes (or none, for workers <= 1) shared by several stores."""
+class Workers(build.Workers):
+    """Decoding processes (or none, for workers <= 1) shared by several stores, stderr silenced
+    where masks are decoded: libpng and libjpeg print their own complaints there."""
 
     def __init__(self, workers: int | None = None) -> None:
-        self.n = workers if workers is not None else cores()
-        self.pool: ProcessPoolExecutor | None = None
-
-    def __enter__(self) -> Workers:
-        if self.n > 1:
-            self.pool = worker_pool(self.n, _silence_worker)
-        return self
-
-    def __exit__(self, *exc) -> None:
-        if self.pool is not None:
-            end_pool(self.pool)
-
-    @contextmanager
-    def map(self, fn: Callable[[Item], Result], items: Iterable[Item]) -> Iterator[Iterator[Result]]:
-        """`fn(item)` for every item (a picklable top-level function), results in item order. Left
-        early, the pool ends (parallel.pool_map): items not started are cancelled and running ones
-        awaited, so that no worker writes into a store being removed."""
-        if self.pool is None:
-            def serial() -> Iterator[Result]:
-                for t in items:
-                    with _quiet_stderr():
-                        r = fn(t)
-                    yield r
-
-            yield serial()
-            return
-        results = pool_map(self.pool, fn, items, 2 * self.n)
-        try:
-            yield results
-        finally:
-            results.close()
-
-    def run(self, tasks: list[FrameTask]) -> AbstractContextManager[Iterator[FrameResult]]:
-        """`run_frames` of every task, in order (see `map`)."""
-        return self.map(run_frames, tasks)
+        super().__init__(workers, quiet=True)

@@ -1,19 +1,20 @@
-"""Writing a store of masks from a `MaskPlan` (plan.py: mask source, z and depth of every frame;
-frame rows, label, id and source of every example). `write_mask_store` hands shard-aligned frame
-ranges to the decoding workers (decoding.py), which write the masks; the parent writes the small
-arrays, streams the content digest and records the oddities the data shows (oddities.py).
+"""A `MaskPlan` (plan.py: mask source, z and depth of every frame; frame rows, label, id and source
+of every example) as a store source (store/build.py): its tasks hand shard-aligned frame ranges to
+the decoding workers (decoding.py), which write the masks; the attributes record the oddities
+the data shows (oddities.py).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import replace
-from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ..errors import InputError
-from ..store.digest import content_digest
+from ..store.backends import MaskSink
+from ..store.build import BadFiles, Rows, Sizes, Source
 from ..store.format import (
     StoreAttrs,
     d1_problems,
@@ -22,84 +23,81 @@ from ..store.format import (
     id_problems,
     z_problems,
 )
-from ..store.writer import Layout, StoreWriter
-from .decoding import FrameTask, Workers
+from ..store.writer import Layout
+from .decoding import FrameTask, run_frames
 from .oddities import example_oddities
 from .plan import MaskPlan
-
-
-class BadFiles(InputError):
-    """Mask files that could not be imported: (frame row, one-line message) each."""
-
-    def __init__(self, failures: list[tuple[int, str]]) -> None:
-        self.failures = failures
-        more = f" (and {len(failures) - 1} more bad file(s))" if len(failures) > 1 else ""
-        super().__init__(failures[0][1] + more, fix="skip-bad" if more else "")
 
 
 def _width(values: list[str]) -> int:
     return max([1, *(len(v.encode()) for v in values)])
 
 
-def write_mask_store(
-    plan: MaskPlan,
-    out: str | Path,
-    fmt: str | None,
-    workers: Workers,
-    *,
-    overwrite: bool = False,
-    collect_all: bool = False,
-    progress: Callable[[int], None] | None = None,
-    check: Callable[[StoreAttrs], None] | None = None,
-) -> StoreAttrs:
-    """Write `plan` into a new store at `out`; BadFiles (nothing written) when a mask file is bad.
+class ImportedMasks(Source):
+    """The store of masks `plan` describes. `collect_all` decodes every file even after a bad one,
+    so that BadFiles lists all of them. `check(attrs)` runs before the commit and may amend the
+    attributes or raise to abort; a split it renames gives the ids its prefix (the plan keeps
+    `id_room` bytes free for it)."""
 
-    `collect_all` decodes every file even after a bad one, so that BadFiles lists all of them.
-    `check(attrs)` runs before the commit and may amend the attributes or raise to abort; a split
-    it renames gives the ids its prefix (the plan keeps `id_room` bytes free for it).
-    """
-    F, E = len(plan.masks), len(plan.d1)
-    if F == 0 or E == 0:
-        raise InputError(f"{plan.split}: nothing to import (no frames or no examples left)")
-    try:
-        H, W = plan.masks[0].size()
-    except InputError as e:
-        raise BadFiles([(0, str(e))]) from None
-    fpc = min(plan.frames_per_chunk, F)
-    fps = max(fpc, plan.frames_per_shard // fpc * fpc)
-    layout = Layout(
-        height=H, width=W, n_frames=F, n_examples=E, max_obs=plan.frame_index.shape[1],
-        id_width=_width(plan.ids) + plan.id_room, source_width=_width(plan.sources), frames_per_chunk=fpc,
-        frames_per_shard=fps, examples_per_chunk=min(E, 4096),
-    )
-    with StoreWriter(str(out), fmt, overwrite=overwrite) as w:
-        w.create(layout)
-        sink = w.mask_sink()
-        tasks = [
-            FrameTask(sink, s, plan.masks[s : s + fps],
-                      plan.z[s : s + fps], plan.depth[s : s + fps], (H, W), plan.threshold, collect_all)
-            for s in range(0, F, fps)
-        ]
-        fd, area = _write_frames(plan, w, workers, tasks, collect_all, progress)
+    def __init__(self, plan: MaskPlan, collect_all: bool = False,
+                 check: Callable[[StoreAttrs], None] | None = None) -> None:
+        self.plan, self.collect_all, self.check = plan, collect_all, check
+        self.area = np.empty(len(plan.masks), np.int32)
+        self.image_size = (0, 0)  # read from the first mask by `sizes`
+        self._examples = self._rows(plan.ids)
 
-        def digest_with(ids: list[str]) -> str:
-            return content_digest(H, W, plan.frame_index, fd, ids, plan.sources, plan.d1)
+    def _rows(self, ids: list[str]) -> dict[str, Any]:
+        p = self.plan
+        return {"frame_index": p.frame_index, "d1": p.d1, "example_id": ids, "source": p.sources}
 
+    def sizes(self) -> Sizes:
+        p = self.plan
+        F, E = len(p.masks), len(p.d1)
+        if F == 0 or E == 0:
+            raise InputError(f"{p.split}: nothing to import (no frames or no examples left)")
+        try:
+            H, W = p.masks[0].size()
+        except InputError as e:
+            raise BadFiles([(0, str(e))]) from None
+        self.image_size = (H, W)
+        return Sizes(height=H, width=W, n_frames=F, n_examples=E, max_obs=p.frame_index.shape[1],
+                     id_width=_width(p.ids) + p.id_room, source_width=_width(p.sources),
+                     frames_per_task=p.frames_per_shard, frames_per_chunk=p.frames_per_chunk)
+
+    def tasks(self, sink: MaskSink | None, layout: Layout) -> Iterator[FrameTask]:
+        p, fps = self.plan, layout.frames_per_shard
+        assert sink is not None
+        for s in range(0, len(p.masks), fps):
+            yield FrameTask(sink, s, p.masks[s : s + fps], p.z[s : s + fps], p.depth[s : s + fps],
+                            (layout.height, layout.width), p.threshold, self.collect_all)
+
+    def runner(self) -> Callable[[FrameTask], Rows]:
+        return run_frames
+
+    def take(self, rows: Rows) -> None:
+        area = rows.frames["area"]
+        self.area[rows.frame_start : rows.frame_start + len(area)] = area
+
+    def examples(self) -> dict[str, Any]:
+        return self._examples
+
+    def attrs(self, digest: str) -> StoreAttrs:
+        p = self.plan
         attrs = StoreAttrs(
-            split=plan.split, domain=plan.domain, image_size=(H, W),
-            counts={"examples": E, "frames": F, "labelled": int((~np.isnan(plan.d1)).sum())},
-            source=plan.source, oddities=plan.oddities + example_oddities(plan, area),
-            digest=digest_with(plan.ids),
+            split=p.split, domain=p.domain, image_size=self.image_size,
+            counts={"examples": len(p.d1), "frames": len(p.masks), "labelled": int((~np.isnan(p.d1)).sum())},
+            source=p.source, oddities=p.oddities + example_oddities(p, self.area), digest=digest,
         )
-        if check:
-            check(attrs)
-        ids = plan.ids
-        if attrs.split != plan.split:  # renamed by the check: ids start with their store's split
-            ids = _rename(plan, attrs, digest_with)
-        _check_as_readers_do(plan, ids, attrs)
-        w.write_examples(0, plan.frame_index, plan.d1, ids, plan.sources)
-        w.commit(attrs)
-    return attrs
+        if self.check:
+            self.check(attrs)
+        ids = p.ids
+        if attrs.split != p.split:  # renamed by the check: ids start with their store's split
+            ids = [attrs.split + i[len(p.split):] for i in p.ids]
+            renamed = dict(zip(p.ids, ids, strict=True))  # the examples' oddities follow them
+            attrs.oddities = [replace(o, subject=renamed.get(o.subject, o.subject)) for o in attrs.oddities]
+            self._examples = self._rows(ids)
+        _check_as_readers_do(p, ids, attrs)
+        return attrs
 
 
 def _check_as_readers_do(plan: MaskPlan, ids: list[str], attrs: StoreAttrs) -> None:
@@ -115,42 +113,3 @@ def _check_as_readers_do(plan: MaskPlan, ids: list[str], attrs: StoreAttrs) -> N
     if problems:
         raise InputError(f"{plan.split}: the store would break the format's rules, so nothing was "
                          f"written: {problems[0]}")
-
-
-def _write_frames(
-    plan: MaskPlan, w: StoreWriter, workers: Workers, tasks: list[FrameTask], collect_all: bool,
-    progress: Callable[[int], None] | None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Decode and write every frame; the frames' digests and mask areas, or BadFiles."""
-    F = len(plan.masks)
-    fd = np.empty((F, 32), np.uint8)
-    area = np.empty(F, np.int32)
-    failures: list[tuple[int, str]] = []
-    with workers.run(tasks) as results:
-        for r in results:
-            if r.failures:
-                failures += r.failures
-                if not collect_all:
-                    break
-            if failures:
-                continue
-            stop = r.start + len(r.digests)
-            fd[r.start : stop] = r.digests
-            area[r.start : stop] = r.stats.area
-            w.write_frames(r.start, plan.z[r.start : stop], plan.depth[r.start : stop], r.stats)
-            w.receive_masks(r.start, r.returned_masks)
-            if progress:
-                progress(stop - r.start)
-    if failures:
-        raise BadFiles(failures)
-    return fd, area
-
-
-def _rename(plan: MaskPlan, attrs: StoreAttrs, digest_with: Callable[[list[str]], str]) -> list[str]:
-    """The ids of a split renamed by the check, which start with the new split; the digest and the
-    examples' oddities follow them (skipped folders keep theirs)."""
-    ids = [attrs.split + i[len(plan.split):] for i in plan.ids]
-    attrs.digest = digest_with(ids)
-    renamed = dict(zip(plan.ids, ids, strict=True))
-    attrs.oddities = [replace(o, subject=renamed.get(o.subject, o.subject)) for o in attrs.oddities]
-    return ids

@@ -78,6 +78,8 @@ class BoxParams:
         return z * a_lo + b_lo, z * a_hi + b_hi
 
 
+DEFAULT_BOX_EXAMPLES_PER_SHARD = 4096  # examples a task of a store of boxes makes: about a CPU-second
+
 BOX_PRESETS = {
     # the released generator: config/data_gen/standard_data.yaml with the HSR grasp camera (its demo)
     "odmd": BoxParams(),

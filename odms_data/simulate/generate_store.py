@@ -1,32 +1,25 @@
-"""Generating a store: shard-aligned tasks (shards.py), run in-process, on a pool of worker
-processes or on a Dask cluster (dask_runner.py, imported only when a scheduler is given).
-
-The parent writes the small arrays the tasks return and streams their example digests, in
-order, into the store digest. Nothing depends on the executor, the number of workers or the
-shard size.
+"""Generating a store of masks: the mask generator as a store source (store/build.py), its tasks
+a shard of examples each (shards.py), run in-process, on a pool of worker processes or on a Dask
+cluster. Nothing depends on the executor, the number of workers or the shard size.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Generator, Iterable, Iterator
-from contextlib import closing
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any
 
-import numpy as np
-
 from ..errors import InputError
-from ..parallel import cores, pool_map, worker_pool, workers_for
-from ..store.digest import StoreDigest
+from ..store.backends import MaskSink
+from ..store.build import Rows, Sizes, Source, Workers, build, counting
 from ..store.format import StoreAttrs
 from ..store.manifests import SplitManifest, load_manifest
 from ..store.masks import packed_width
-from ..store.writer import Layout, StoreWriter
+from ..store.writer import Layout
 from .params import DEFAULT_EXAMPLES_PER_SHARD, GENERATOR_VERSION, MAX_FRAMES, GeneratorParams
 from .shard_run import run
-from .shard_task import SOURCE, ShardResult, ShardTask, example_ids
+from .shard_task import SOURCE, ShardTask, example_ids
 
-Progress = Callable[[int], None]
 SHARD_BYTES = 2**28  # the most packed mask bytes one shard task holds
 EXAMPLE_S, MEGAPIXEL_S = 1e-4, 1.9e-4  # generation's CPU-seconds per example and per megapixel of frames
 
@@ -58,23 +51,41 @@ def work_seconds(count: int, params: GeneratorParams) -> float:
     return count * (EXAMPLE_S + params.n_obs * H * W / 1e6 * MEGAPIXEL_S)
 
 
-def _run_tasks(
-    tasks: Iterable[ShardTask], workers: int, progress: Progress | None
-) -> Generator[ShardResult, None, None]:
-    """Results in task order, each counted by `progress` as it comes."""
-    for r in _run_local(tasks, workers):
-        if progress:
-            progress(r.stop - r.start)
-        yield r
+class GeneratedMasks(Source):
+    """The mask generator as a store source: tasks of `per_task` examples (shard_task.py), each
+    made and digested where it runs (shards.py)."""
 
+    def __init__(self, count: int, params: GeneratorParams, seed: int, split: str, preset: str | None,
+                 per_task: int) -> None:
+        self.count, self.params, self.seed, self.split, self.preset = count, params, seed, split, preset
+        self.per_task = per_task
 
-def _run_local(tasks: Iterable[ShardTask], workers: int) -> Iterator[ShardResult]:
-    """Results in task order; at most 2 * workers tasks in flight."""
-    if workers <= 1:
-        yield from map(run, tasks)
-        return
-    with worker_pool(workers) as pool:
-        yield from pool_map(pool, run, tasks, 2 * workers)
+    def sizes(self) -> Sizes:
+        n, (H, W) = self.params.n_obs, self.params.image_size
+        id_width = len(example_ids(self.split, self.count, self.count - 1, self.count)[0].encode())
+        return Sizes(height=H, width=W, n_frames=self.count * n, n_examples=self.count, max_obs=n,
+                     id_width=id_width, source_width=len(SOURCE), frames_per_task=self.per_task * n,
+                     frames_per_chunk=n, examples_per_task=self.per_task, unit="examples")
+
+    def tasks(self, sink: MaskSink | None, layout: Layout) -> Iterator[ShardTask]:
+        assert sink is not None
+        for s in range(0, self.count, self.per_task):  # made as run: a billion examples start at once
+            yield ShardTask(sink, self.params, self.seed, self.split, self.count, s,
+                            min(s + self.per_task, self.count))
+
+    def runner(self) -> Callable[[ShardTask], Rows]:
+        return run
+
+    def attrs(self, digest: str) -> StoreAttrs:
+        H, W = self.params.image_size
+        n = self.params.n_obs
+        return StoreAttrs(
+            split=self.split, domain="generated", image_size=(H, W),
+            counts={"examples": self.count, "frames": self.count * n, "labelled": self.count},
+            generator={"version": GENERATOR_VERSION, "preset": self.preset, "params": self.params.to_json(),
+                       "seed": self.seed},
+            digest=digest,
+        )
 
 
 def generate(
@@ -89,7 +100,7 @@ def generate(
     workers: int | None = None,
     examples_per_shard: int = DEFAULT_EXAMPLES_PER_SHARD,
     overwrite: bool = False,
-    progress: Progress | None = None,
+    progress: Callable[[int], None] | None = None,
     scheduler: str | None = None,
 ) -> StoreAttrs:
     """Generate `count` examples into a new store at `path`; returns its attributes.
@@ -112,46 +123,7 @@ def generate(
                          f"most {MAX_FRAMES:.3g} (2^40)")
     # a shard's masks are held in memory by its task: at most SHARD_BYTES, whatever was asked
     eps = max(1, min(examples_per_shard, count, SHARD_BYTES // (n * H * packed_width(W))))
-    ids_width = len(example_ids(split, count, count - 1, count)[0].encode())
-    layout = Layout(
-        height=H, width=W, n_frames=count * n, n_examples=count, max_obs=n,
-        id_width=ids_width, source_width=len(SOURCE), frames_per_chunk=n,
-        frames_per_shard=eps * n, examples_per_chunk=eps,
-    )
-    with StoreWriter(path, fmt, overwrite=overwrite) as w:
-        w.create(layout)
-        sink = w.mask_sink()
-        tasks = (  # made as they are run: a billion examples start at once
-            ShardTask(sink, params, seed, split, count, s, min(s + eps, count))
-            for s in range(0, count, eps)
-        )
-        if scheduler is None:
-            if workers is None:
-                workers = workers_for(work_seconds(count, params), cores())
-            results = _run_tasks(tasks, min(workers, -(-count // eps)), progress)  # no more than tasks
-        else:
-            from .dask_runner import run_tasks
-
-            results = run_tasks(tasks, scheduler, progress)
-        digest = StoreDigest(H, W, count)
-        with closing(results):  # on an error, the workers stop writing before the store is removed
-            for r in results:
-                f0 = r.start * n
-                w.write_frames(f0, r.z, r.z, r.stats)
-                frame_index = np.arange(f0, r.stop * n).reshape(-1, n)
-                w.write_examples(
-                    r.start, frame_index, r.z[::n].copy(),
-                    example_ids(split, count, r.start, r.stop), [SOURCE] * (r.stop - r.start),
-                )
-                w.receive_masks(f0, r.returned_masks)
-                digest.update(r.example_digests)
-        attrs = StoreAttrs(
-            split=split, domain="generated", image_size=(H, W),
-            counts={"examples": count, "frames": count * n, "labelled": count},
-            generator={
-                "version": GENERATOR_VERSION, "preset": preset, "params": params.to_json(), "seed": seed,
-            },
-            digest=digest.hexdigest(),
-        )
-        w.commit(attrs)
-    return attrs
+    source = GeneratedMasks(count, params, seed, split, preset, eps)
+    with Workers.for_work(work_seconds(count, params), -(-count // eps), workers, scheduler) as runners:
+        return build(source, path, fmt, workers=runners, overwrite=overwrite,
+                     progress=counting(progress) if progress else None)

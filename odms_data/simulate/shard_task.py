@@ -1,5 +1,4 @@
-"""What one shard task of a generated store is and what it returns; shards.py runs it (through
-shard_run.py).
+"""What one shard task of a generated store is; shards.py runs it (through shard_run.py).
 
 Light: the process that hands tasks out (to local workers or a Dask cluster) imports this, not
 the renderer, whose imports (Numba, OpenCV) it would pay for and never use.
@@ -7,12 +6,9 @@ the renderer, whose imports (Numba, OpenCV) it would pay for and never use.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
-import numpy as np
+from dataclasses import dataclass
 
 from ..store.backends import MaskSink
-from ..store.masks import FrameStats
 from .params import GeneratorParams
 
 SOURCE = "generated"
@@ -35,13 +31,3 @@ class ShardTask:
     count: int
     start: int
     stop: int
-
-
-@dataclass
-class ShardResult:
-    start: int
-    stop: int
-    z: np.ndarray
-    stats: FrameStats
-    example_digests: list[bytes]
-    returned_masks: list[bytes] = field(default_factory=list)  # for StoreWriter.receive_masks

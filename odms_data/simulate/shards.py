@@ -2,8 +2,9 @@
 
 A task draws and renders its examples, writes their masks (Zarr: straight into the shard; HDF5:
 returns deflated chunks for the parent to store) and returns the small per-frame and
-per-example arrays plus the example digests. It is pure in (params, seed, indices) up to the
-store path, so any executor (local processes, a Dask cluster) gives the same store.
+per-example arrays plus the example digests, as the store builder's `Rows`. It is pure in
+(params, seed, indices) up to the store path, so any executor (local processes, a Dask cluster)
+gives the same store.
 """
 
 from __future__ import annotations
@@ -14,18 +15,19 @@ from contextlib import contextmanager
 
 import numpy as np
 
+from ..store.build import Rows
 from ..store.digest import example_digest, frame_tails, padded_frame_digests
 from ..store.masks import FrameStats, largest_region, packed_width
 from .batch_render import FrameBoxes, render_boxes
 from .kernel import kernel
 from .object_model import ExampleSpec, sample_examples
 from .params import GeneratorParams
-from .shard_task import SOURCE, ShardResult, ShardTask, example_ids
+from .shard_task import SOURCE, ShardTask, example_ids
 
 DRAW_CHUNK = 8  # examples rendered together: fewer calls, the drawing's scratch image a few MB
 
 
-def run_shard(task: ShardTask) -> ShardResult:
+def run_shard(task: ShardTask) -> Rows:
     """Generate and write one shard; pure in (params, seed, indices) up to the store path.
 
     Allocation-light: each example's frames are packed into this thread's reused packed-example
@@ -56,9 +58,14 @@ def run_shard(task: ShardTask) -> ShardResult:
             fd = padded_frame_digests(packed, y0.tolist(), y1.tolist(), tails[f])
             digests.append(example_digest(ids[e], SOURCE, spec.z[0], fd))
             _clear_rows(packed, y0, y1)
-    result = ShardResult(task.start, task.stop, z, stats, digests)
-    result.returned_masks = task.sink.write(task.start * n, chunks)
-    return result
+    f0 = task.start * n
+    return Rows(
+        f0, {"z": z, "depth": z, "area": stats.area, "largest_area": stats.largest_area, "bbox": stats.bbox},
+        returned_masks=task.sink.write(f0, chunks), example_start=task.start,
+        examples={"frame_index": np.arange(f0, task.stop * n).reshape(-1, n), "d1": z[::n].copy(),
+                  "example_id": ids, "source": [SOURCE] * len(ids)},
+        example_digests=digests,
+    )
 
 
 @kernel

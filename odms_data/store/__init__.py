@@ -2,8 +2,10 @@
 
 Arrays and attributes (format.py), bit-packed masks and their statistics (masks.py), the content
 digest (digest.py), the Zarr and HDF5 backends with their codecs, the fast reader of local Zarr
-shards and the workers' shard writer (backends/), the atomic writer (writer.py), the reader,
-`open_store` (reader.py), validation (validate.py), Zarr <-> HDF5 conversion (convert.py), the
-split manifests of splits/ (manifests.py). Everything above this layer reads and writes stores
-through these modules; nothing here knows where examples come from.
+shards and the workers' shard writer (backends/), the store builder, the only code that writes a
+store (build.py), with the atomic writer it drives (writer.py), the reader, `open_store`
+(reader.py), validation (validate.py), Zarr <-> HDF5 conversion (convert.py) and a store of known
+rows of boxes (box_store.py), both store sources, the split manifests of splits/ (manifests.py).
+Everything above this layer reads stores through these modules and writes them through build.py;
+nothing here knows where examples come from.
 """

@@ -298,17 +298,20 @@ class Store:
         )
 
 
-def open_store(path: str) -> Store:
-    """Open a complete store for reading; an incomplete or malformed one raises StoreError."""
+def open_store(path: str, *, incomplete: bool = False) -> Store:
+    """Open a complete store for reading; an incomplete (unless `incomplete`: the store builder's
+    check before its commit) or malformed one raises StoreError."""
     backend = open_backend(str(path), "r")
     try:
         raw = backend.read_attrs()
         if raw is None:
             raise StoreError(f"{path}: not an odms-data store (no 'odms' attribute)")
         if raw.get("complete") is not True:
-            raise StoreError(
-                f"{path}: store is incomplete (an interrupted write?); re-run the command that made it"
-            )
+            if not incomplete:
+                raise StoreError(
+                    f"{path}: store is incomplete (an interrupted write?); re-run the command that made it"
+                )
+            raw = {**raw, "complete": True}  # checked as it will be once committed
         missing = sorted(set(arrays_of(kind_of(raw))) - backend.names())
         if missing:
             raise StoreError(f"{path}: store lacks the array(s) {', '.join(missing)}")

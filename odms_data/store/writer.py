@@ -135,6 +135,7 @@ class StoreWriter:
         self.layout: Layout | None = None
         self._held = ExitStack()
         self._committed = False
+        self._attrs: StoreAttrs | None = None
 
     # --- lifetime ----------------------------------------------------------------------
     def __enter__(self) -> StoreWriter:
@@ -242,18 +243,33 @@ class StoreWriter:
                 arr[start : start + len(values)] = values
             self._created()[0].check()
 
-    def commit(self, attrs: StoreAttrs) -> str:
-        """Mark the store complete and move it into place; returns its path."""
+    def finish(self, attrs: StoreAttrs) -> None:
+        """Write the attributes and close the store, not yet committed: complete where the commit
+        is a rename (locally), at a URL once committed."""
         with uninterrupted():
             backend, L = self._created()
             if attrs.kind != L.kind:
                 raise StoreError(f"{self.path}: a store created for {L.kind} is committed as {attrs.kind}")
             attrs.complete = True
-            backend.write_attrs(attrs.to_json())
+            raw = attrs.to_json()
+            raw["complete"] = self.local
+            backend.write_attrs(raw)
             backend.close()
+            self._attrs = attrs
+
+    def commit(self, attrs: StoreAttrs | None = None) -> str:
+        """Mark the store complete (`finish`, unless given no attributes after it) and move it into
+        place; returns its path."""
+        if attrs is not None:
+            self.finish(attrs)
+        with uninterrupted():
+            backend, _ = self._created()
             if self._partial is not None:
                 check_replaceable(self.path, self.overwrite, STORE)  # again: something may have come
                 self._partial.commit()
+            elif self._attrs is not None:
+                backend.write_attrs(self._attrs.to_json())
+                backend.close()
             self._committed = True
             return self.path
 

@@ -139,6 +139,18 @@ def test_cli(cluster, local_digest, tmp_path):
     assert result.exit_code == 2 and "--workers and --scheduler exclude each other" in result.output
 
 
+def test_boxes_on_the_cluster_give_one_local_workers_digest(cluster, tmp_path):
+    digests = []
+    for name, more in (("local", ["--workers", "1"]), ("dask", ["--scheduler", cluster.scheduler_address])):
+        res = CliRunner().invoke(main, ["generate", "-n", "30", "--boxes", "odmd-perturb-motion",
+                                        "--seed", "4", "--examples-per-shard", "4",
+                                        "-o", str(tmp_path / f"{name}.zarr"), "--json", *more])
+        assert res.exit_code == 0, res.output
+        digests.append(json.loads(res.stdout[res.stdout.index("{"):])["digest"])
+        _check(str(tmp_path / f"{name}.zarr"), digests[-1])
+    assert digests[0] == digests[1]
+
+
 def test_memory_url_needs_an_in_process_cluster(cluster, local_digest):
     with pytest.raises(InputError, match="memory:// store lives in this process"):
         generate("memory://odms-test/procs.zarr", COUNT, PARAMS, SEED, scheduler=cluster.scheduler_address)

@@ -53,3 +53,29 @@ def test_normal_boxes_give_box_ls_its_exact_depths(tmp_path):
     assert res.exit_code == 0, res.output
     res = CliRunner().invoke(main, ["score", str(tmp_path / "p.csv"), "--data", store, "--json"])
     assert json.loads(res.stdout)["splits"][0]["mean_percent_error"] < 1e-6
+
+
+def test_workers_and_examples_per_shard_leave_the_digest_as_one_worker_made_it(tmp_path):
+    digests = set()
+    for name, more in (("one", ["--workers", "1"]), ("two", ["--workers", "2", "--examples-per-shard", "7"]),
+                       ("hdf", ["--workers", "2", "--examples-per-shard", "16", "--format", "hdf5"])):
+        out = str(tmp_path / f"{name}.{'h5' if name == 'hdf' else 'zarr'}")
+        res = CliRunner().invoke(main, ["generate", "-n", "40", "--boxes", "odmd", "--seed", "3", "-o", out,
+                                        "--json", *more])
+        assert res.exit_code == 0, res.output
+        digests.add(json.loads(res.stdout[res.stdout.index("{"):])["digest"])
+        with open_store(out) as s:
+            assert s.n_examples == 40 and s.example_ids[-1] == "generated/0000039"
+    assert len(digests) == 1
+
+
+def test_a_store_its_readers_refuse_never_replaces_the_old_one(tmp_path):
+    """`--name 'my split'` breaks the format's split-name rule: one line, exit 2, old store intact."""
+    out, digest = _generate(tmp_path, "good", 5)
+    res = CliRunner().invoke(main, ["generate", "-n", "5", "--boxes", "odmd", "--name", "my split", "-o", out,
+                                    "--overwrite"])
+    assert res.exit_code == 2, res.output
+    assert res.output.count("\n") == 1 and "my split" in res.output and "nothing was replaced" in res.output
+    with open_store(out) as s:
+        assert s.attrs.split == "good" and s.attrs.digest == digest
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["good.zarr"]

@@ -13,7 +13,7 @@ from _stores import stats_of
 from odms_data.errors import InputError, StoreError, StoreExistsError, StoreLockedError
 from odms_data.simulate.generate_store import generate
 from odms_data.simulate.object_model import sample_example
-from odms_data.simulate.params import GENERATOR_VERSION, PRESETS
+from odms_data.simulate.params import GENERATOR_VERSION, PRESETS, preset
 from odms_data.simulate.render import reference_masks
 from odms_data.store.convert import convert
 from odms_data.store.digest import frame_digests, frame_tails, padded_frame_digests
@@ -98,6 +98,19 @@ def test_digest_ignores_workers_shard_size_and_backend(tmp_path, small_zarr):
     assert a.digest == b.digest == c.digest == reference
     other = generate(str(tmp_path / "d.zarr"), 30, PERTURB, 6, split="small")
     assert other.digest != reference
+
+
+def test_convert_streams_a_shard_at_a_time_and_reports_each(tmp_path):
+    """A store of 1,300 frames in 10-frame chunks is copied in two shards of at most 1,024 frames
+    (1,020 and 280), each written and counted as it is read."""
+    src = tmp_path / "src.zarr"
+    generate(str(src), 130, preset("perturb", image_size=(60, 80), sizes=(20,)), 1)
+    for dst in (tmp_path / "out.h5", tmp_path / "back.zarr"):
+        seen: list[tuple[str, int, int]] = []
+        convert(str(src if dst.suffix == ".h5" else tmp_path / "out.h5"), str(dst),
+                progress=lambda *report, seen=seen: seen.append(report))
+        assert seen == [(str(dst), 1020, 1300), (str(dst), 1300, 1300)]
+    assert zarr.open_array(str(tmp_path / "back.zarr" / "masks"), mode="r").shards[0] == 1020
 
 
 def test_zarr_hdf5_round_trip_is_lossless(tmp_path, small_zarr):

@@ -1,14 +1,14 @@
-"""Running generation's shard tasks on a Dask cluster: `generate(..., scheduler=ADDRESS)`.
+"""Running a store's tasks on a Dask cluster: the store builder's executor (store/build.py) when
+given a scheduler address.
 
-The tasks are the ShardTasks of a local run, executed by the same `shard_run.run`, so the store and
-its digest do not depend on the cluster. Each task writes its whole Zarr shard of `masks` in one
-store write; a task that raises is retried by Dask (`RETRIES`), one whose worker dies is rerun
-elsewhere (the scheduler's `allowed-failures`), and a rerun rewrites the whole shard. Results are
-handed to the parent in task order (parallel.ordered_map), with at most two tasks per worker
-thread (recounted as the cluster scales) ahead of the oldest unfinished one; the parent writes the
-small arrays, feeds the digest and marks the store complete after the last shard.
+The tasks and the function that runs them are those of a local run, so the store and its digest
+do not depend on the cluster. A task writes its whole Zarr shard of `masks` in one store write; a
+task that raises is retried by Dask (`RETRIES`), one whose worker dies is rerun elsewhere (the
+scheduler's `allowed-failures`), and a rerun rewrites the whole shard. Results are handed to the
+caller in task order (parallel.ordered_map), with at most two tasks per worker thread (recounted
+as the cluster scales) ahead of the oldest unfinished one.
 
-Only this module imports Dask, and only `generate` with a scheduler imports this module.
+Only this module imports Dask, and only a build with a scheduler imports this module.
 """
 
 from __future__ import annotations
@@ -16,14 +16,15 @@ from __future__ import annotations
 import itertools
 import os
 from collections.abc import Callable, Generator, Iterable
-from typing import Any
+from typing import Any, TypeVar
 
-from .._version import __version__
-from ..errors import InputError, StoreError
-from ..extras import optional
-from ..parallel import ordered_map
-from .shard_run import run
-from .shard_task import ShardResult, ShardTask
+from ._version import __version__
+from .errors import InputError, StoreError
+from .extras import optional
+from .parallel import ordered_map
+
+Task = TypeVar("Task")
+Result = TypeVar("Result")
 
 RETRIES = 3  # reruns of a task that raised
 CONNECT_TIMEOUT_S = 30
@@ -74,37 +75,40 @@ def check_workers(client, address: str, path: str) -> None:
 
 
 def run_tasks(
-    tasks: Iterable[ShardTask], address: str, progress: Callable[[int], None] | None = None
-) -> Generator[ShardResult, None, None]:
-    """Results of `tasks` run on the cluster at `address`, in task order."""
+    fn: Callable[[Task], Result], tasks: Iterable[Task], address: str, path: str
+) -> Generator[Result, None, None]:
+    """`fn(task)` of every task, run on the cluster at `address`, in task order; `path` is the
+    store they write (checked to be one the workers see)."""
     first = next(iter(tasks := iter(tasks)), None)
     if first is None:
         return
     tasks = itertools.chain([first], tasks)
     with connect(address) as client:
-        check_workers(client, address, first.sink.path)
+        check_workers(client, address, path)
 
         def ahead() -> int:  # two tasks per worker thread, recounted as the cluster scales
             return max(4, 2 * sum(client.nthreads().values()))
 
-        def submit(task: ShardTask) -> tuple[ShardTask, Any]:
-            return task, client.submit(run, task, retries=RETRIES, pure=False)
+        def submit(task: Task) -> tuple[Task, Any]:
+            return task, client.submit(fn, task, retries=RETRIES, pure=False)
 
-        def collect(handle: tuple[ShardTask, Any]) -> ShardResult:
+        def collect(handle: tuple[Task, Any]) -> Result:
             t, future = handle
             try:
                 return future.result()
             except Exception as e:
                 raise StoreError(
-                    f"{t.sink.path}: shard of examples {t.start}-{t.stop - 1} failed on {address} "
-                    f"after retries ({type(e).__name__}: {e})"
+                    f"{path}: {_named(t)} failed on {address} after retries ({type(e).__name__}: {e})"
                 ) from e
 
-        def abandon(handles: list[tuple[ShardTask, Any]]) -> None:
+        def abandon(handles: list[tuple[Task, Any]]) -> None:
             for _, future in handles:
                 future.cancel()
 
-        for result in ordered_map(submit, collect, tasks, ahead, abandon):
-            if progress:
-                progress(result.stop - result.start)
-            yield result
+        yield from ordered_map(submit, collect, tasks, ahead, abandon)
+
+
+def _named(task: Any) -> str:
+    """A task by the rows it makes (a `start` and `stop`, where it has them)."""
+    start, stop = getattr(task, "start", None), getattr(task, "stop", None)
+    return "a task" if start is None or stop is None else f"the task of rows {start}-{stop - 1}"
