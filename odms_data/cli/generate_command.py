@@ -16,7 +16,7 @@ from ..simulate.params import (
     closest_parameter,
     merged_params,
 )
-from . import echo_json
+from . import completion, echo_json
 from .progress import progress
 
 
@@ -46,7 +46,8 @@ def _split_recipe(split_name: str, given: list[str]):
 
 
 @click.command()
-@click.option("--split", "split_name", help="Generate a named split of splits/ and verify its digest.")
+@click.option("--split", "split_name", shell_complete=completion.splits,
+              help="Generate a named split of splits/ and verify its digest.")
 @click.option("-n", "--count", type=click.IntRange(min=1), help="Number of examples.")
 @click.option("--preset", type=click.Choice(sorted(PRESETS)), default=None,
               help="Parameter preset (default: standard).")

@@ -7,7 +7,7 @@ import numpy as np
 
 from ..outputs import check_replaceable
 from ..store.reader import open_store
-from . import echo_json, echo_text
+from . import completion, echo_json, echo_text
 from .progress import Bars
 
 
@@ -17,7 +17,7 @@ def _several(reports: list[dict]) -> dict:
 
 
 @click.command()
-@click.argument("stores", nargs=-1, required=True, type=click.Path())
+@click.argument("stores", nargs=-1, required=True, type=click.Path(), shell_complete=completion.stores)
 @click.option("--json", "as_json", is_flag=True,
               help='Print the report as JSON (several stores: {"stores": [report, ...]}).')
 def validate(stores, as_json):
@@ -55,7 +55,7 @@ EMPTY = {"masks": ("empty_masks", "empty masks"), "boxes": ("missed_detections",
 
 
 @click.command()
-@click.argument("stores", nargs=-1, required=True, type=click.Path())
+@click.argument("stores", nargs=-1, required=True, type=click.Path(), shell_complete=completion.stores)
 @click.option("--json", "as_json", is_flag=True,
               help='Print the attributes and summary as JSON (several stores: {"stores": [summary, ...]}).')
 def info(stores, as_json):
@@ -110,7 +110,7 @@ def _summary(store: str) -> tuple[dict, str]:
 
 
 @click.command()
-@click.argument("src", type=click.Path())
+@click.argument("src", type=click.Path(), shell_complete=completion.stores)
 @click.argument("dst", type=click.Path())
 @click.option("--format", "fmt", type=click.Choice(["zarr", "hdf5"]), default=None,
               help="Backend of DST (default: from its suffix, .h5/.hdf5 = hdf5, else zarr).")
@@ -134,7 +134,7 @@ def convert(src, dst, fmt, overwrite, as_json):
 
 
 @click.command()
-@click.argument("store", type=click.Path())
+@click.argument("store", type=click.Path(), shell_complete=completion.stores)
 @click.argument("example_id")
 @click.option("-o", "--output", type=click.Path(), required=True,
               help="Image file to write (PNG, or another format by its suffix).")

@@ -205,3 +205,23 @@ def test_help_names_the_environment_and_completion():
     done = subprocess.run([sys.executable, "-m", "odms_data.cli"], env=env, capture_output=True, text=True)
     assert "plain,export" in done.stdout.splitlines()
 
+
+def _completions(words: str, cwd: Path) -> list[str]:
+    cword = len(words.split()) - (0 if words.endswith(" ") else 1)
+    env = {**os.environ, "_ODMS_DATA_COMPLETE": "bash_complete", "COMP_WORDS": words,
+           "COMP_CWORD": str(cword)}
+    done = subprocess.run([sys.executable, "-m", "odms_data.cli"], env=env, capture_output=True, text=True,
+                          cwd=cwd)
+    return done.stdout.splitlines()
+
+
+def test_completion_offers_split_names_and_store_paths(tmp_path):
+    (tmp_path / "runs" / "old.zarr").mkdir(parents=True)
+    (tmp_path / "sim-val.zarr").mkdir()
+    (tmp_path / "train.h5").write_bytes(b"")
+    (tmp_path / "notes.txt").write_text("not a store")
+    assert _completions("odms-data generate --split sim-v", tmp_path) == ["plain,sim-val"]
+    stores = ["plain,runs/", "plain,sim-val.zarr", "plain,train.h5"]
+    assert _completions("odms-data info ", tmp_path) == stores
+    assert _completions("odms-data validate runs/", tmp_path) == ["plain,runs/old.zarr"]
+    assert _completions("odms-data baseline vosde robot-t", tmp_path) == ["plain,robot-test"]
