@@ -14,6 +14,7 @@ import json
 import math
 import os
 import platform
+import re
 import shlex
 import subprocess
 import sys
@@ -70,16 +71,35 @@ def _clean(value: Any) -> Any:
     return value
 
 
+ROOT = RESULTS.parent.parent
+_ABSOLUTE = re.compile(r"(?<![\w.~:/])/[^\s'\"]+")  # an absolute path, up to a space or quote
+
+
+def _unplaced(value: Any) -> Any:
+    """`value` without this machine's paths: the clone's become relative to it, the home folder's
+    start with ~, and any other absolute path is cut to .../its last part."""
+    if isinstance(value, str):
+        value = value.replace(f"{ROOT}/", "").replace(str(ROOT), ".").replace(f"{Path.home()}/", "~/")
+        return _ABSOLUTE.sub(lambda m: ".../" + m.group(0).rstrip("/").rsplit("/", 1)[-1], value)
+    if isinstance(value, dict):
+        return {k: _unplaced(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_unplaced(v) for v in value]
+    return value
+
+
 def save(args: argparse.Namespace, title: str, baseline: dict[str, Any], rows: list[dict[str, Any]],
          extra: dict[str, Any] | None = None) -> Path:
     """Write benchmarks/results/<script>.json: `baseline` is what the rows are compared with, measured
     in the same run ({"what": ..., "value": ..., "unit": ...}); `rows` one dict a measurement, all
-    with the same keys (RESULTS.md's table); `extra` anything else worth keeping."""
+    with the same keys (RESULTS.md's table); `extra` anything else worth keeping. No path of this
+    machine is written (`_unplaced`)."""
     script = Path(sys.argv[0]).name
     record = {"script": f"benchmarks/{script}", "title": title,
               "command": shlex.join(["python", f"benchmarks/{script}", *sys.argv[1:]]),
               "date": _STARTED[0].strftime("%Y-%m-%d %H:%M UTC"), "commit": commit(), "machine": machine(),
               "notes": args.notes, "baseline": baseline, "rows": rows, **(extra or {})}
+    record = _unplaced(record)
     args.results.mkdir(parents=True, exist_ok=True)
     path = args.results / f"{Path(script).stem}.json"
     partial = path.with_name(path.name + ".partial")

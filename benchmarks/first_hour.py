@@ -6,7 +6,8 @@ The block is the README's ```bash fence after the `<!-- first-hour` marker, run 
 `set -euo pipefail`, one step a command (a line, with its continuation lines). `--small` sets
 ITERATIONS=4 STEPS=3, as `.ci/run` does; `--skip-install` leaves out the block's `pip install`
 line (for an environment that has the extras, such as the development install). Afterwards the
-scores of the block's predictions files are read with `score --json`, and the run fails when the
+scores of the block's predictions files are read with `score --json` (each in the row of the step
+that wrote it: mean percent error on sim-val), and the run fails when the
 block left anything in `git status` or a step failed. The baseline is the main job alone,
 `odms-data generate --split sim-val` in a fresh folder, timed in the same run.
 """
@@ -84,6 +85,12 @@ def scores(folder: Path, env: dict[str, str]) -> dict[str, float | None]:
     return out
 
 
+def written(step: str) -> str | None:
+    """The predictions file a step writes (`-o x.csv`, `--out x.csv`), if any."""
+    m = re.search(r"(?:-o|--out)\s+(\S+\.csv)\b", step)
+    return m.group(1) if m else None
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--small", action="store_true", help="ITERATIONS=4 STEPS=3, no JSON (what .ci/run runs)")
@@ -114,7 +121,8 @@ def main() -> None:
     for step, secs in zip(steps, seconds, strict=True):
         print(f"{secs:7.1f} s  {step.splitlines()[0][:100]}")
     print(f"{total:7.1f} s  in all; scores on sim-val (mean percent error): {found}")
-    rows = [{"step": re.sub(r"\s+#.*", "", s).replace("\\\n", "").replace("  ", " ").strip(), "seconds": secs}
+    rows = [{"step": re.sub(r"\s+#.*", "", s).replace("\\\n", "").replace("  ", " ").strip(), "seconds": secs,
+             "mean % error on sim-val": found.get(written(s) or "")}
             for s, secs in zip(steps, seconds, strict=True)]
     if a.small:
         a.notes = "; ".join(x for x in (a.notes, "ITERATIONS=4 STEPS=3, as .ci/run runs it") if x)

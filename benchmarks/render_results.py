@@ -35,13 +35,19 @@ def cell(value: Any) -> str:
     return str(value).replace("|", "\\|")
 
 
+def load(m: dict[str, Any]) -> str:
+    start, end = m.get("load_average_at_start"), m.get("load_average_at_end")
+    if not (start and end):  # a run recorded before the scripts wrote JSON
+        return "load average not recorded"
+    return f"load average {start[0]} at the start, {end[0]} at the end"
+
+
 def section(r: dict[str, Any]) -> str:
     m = r["machine"]
     lines = [f"## {r['title']}", "", f"`{r['command']}`", "",
              f"- run {r['date']} at commit {r['commit']}",
              f"- machine: {m['cores']} cores ({m['cores_usable']} usable), {m['cpu_model']}, "
-             f"{m['memory_gib']} GiB, {m['system']}, Python {m['python']}; load average "
-             f"{m['load_average_at_start'][0]} at the start, {m['load_average_at_end'][0]} at the end"]
+             f"{m['memory_gib']} GiB, {m['system']}, Python {m['python']}; " + load(m)]
     if r.get("notes"):
         lines.append(f"- notes: {r['notes']}")
     b = r["baseline"]

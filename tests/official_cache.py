@@ -1,18 +1,17 @@
 """The official release, extracted and imported once for every test run, not once a run.
 
-A cache entry is the release's data/ folder and its eight imported stores, in
-~/.cache/odms-data/test-stores/<key>/ (`ODMS_TEST_CACHE` names another folder). The key is the
-store format's version, the archive's sha256 and a digest of the code that decides the stores'
-content (odms_data/importers/, odms_data/store/, odms_data/protocol.py: their syntax trees, not
-their comments or docstrings), so a change to that code imports anew instead of testing stale
-stores. An entry is built in a `.partial` sibling and renamed into place complete; its files are
-made read-only, so a test that writes into them fails (unless run as root). A `files.json` lists
-every file's size and, for the stores, its sha256; an entry that does not match it (a file lost,
-truncated, or a store changed) is rebuilt. Entries of other keys unused for a week,
-and partial entries of runs that were killed, are removed. A run builds under a lock on the
-cache's folder, so that a second run, or a second pytest-xdist worker, asking meanwhile waits for
-that entry instead of importing the release again beside it.
-"""
+A cache entry is the release's data/ folder and its eight imported stores, in test-stores/<key>/ of
+the user's cache folder ($XDG_CACHE_HOME/odms-data, else ~/.cache/odms-data; `ODMS_TEST_CACHE` names
+another folder). The key is the store format's version, the archive's sha256 and a digest of the
+code that decides the stores' content (odms_data/importers/, odms_data/store/,
+odms_data/protocol.py: their syntax trees, not their comments or docstrings), so a change to that
+code imports anew instead of testing stale stores. An entry is built in a `.partial` sibling and
+renamed into place complete; its files are made read-only, so a test that writes into them fails
+(unless run as root). A `files.json` lists every file's size and, for the stores, its sha256; an
+entry that does not match it (a file lost, truncated, or a store changed) is rebuilt. Entries of
+other keys unused for a week, and partial entries of runs that were killed, are removed. A run
+builds under a lock on the cache's folder, so that a second run, or a second pytest-xdist worker,
+asking meanwhile waits for that entry instead of importing the release again beside it."""
 
 from __future__ import annotations
 
@@ -29,6 +28,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from odms_data.store.format import FORMAT_VERSION
+from odms_data.user_cache import cache_home
 
 PACKAGE = Path(__file__).resolve().parents[1] / "odms_data"
 CONTENT_CODE = ("importers", "store", "protocol.py")
@@ -37,8 +37,8 @@ UNUSED_DAYS = 7  # entries of other keys (older code, another archive) unused th
 
 
 def cache_root() -> Path:
-    default = Path.home() / ".cache" / "odms-data" / "test-stores"
-    return Path(os.environ.get("ODMS_TEST_CACHE", default))
+    given = os.environ.get("ODMS_TEST_CACHE")
+    return Path(given) if given else cache_home() / "test-stores"
 
 
 def sha256(path: Path) -> str:

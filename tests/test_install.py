@@ -56,3 +56,13 @@ def test_an_installed_wheel_generates_a_named_split(wheel, tmp_path, option, wor
                          capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
     assert "digest matches splits/sim-val.json" in out.stdout
+
+
+def test_the_wheel_carries_the_mit_licence(wheel):
+    """setup.cfg says MIT: the licence's text ships in the wheel's metadata."""
+    import zipfile
+
+    with zipfile.ZipFile(wheel) as z:
+        (name,) = [n for n in z.namelist() if n.endswith("LICENSE") and ".dist-info/" in n]
+        text = z.read(name).decode()
+    assert text.startswith("MIT License") and "WITHOUT WARRANTY OF ANY KIND" in text

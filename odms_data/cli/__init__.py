@@ -159,7 +159,7 @@ def main() -> None:
     \b
     Environment:
       ODMS_DATA    folders of ground-truth stores for score and baseline (':'-separated;
-                   default ~/.cache/odms-data)
+                   default $XDG_CACHE_HOME/odms-data, else ~/.cache/odms-data)
       ODMS_DEBUG   set to 1 to see the traceback of an unexpected error
       ODMS_SHARED  the shared/ folder holding data/odms-v1.tar.gz, for the tests that
                    need the official data (default: ../shared beside the project)

@@ -10,14 +10,17 @@ from .. import safe_json
 from ..errors import InputError
 from ..extras import optional
 from ..simulate.box_examples import BOX_PRESETS, DEFAULT_BOX_EXAMPLES_PER_SHARD
+from ..simulate.kernel import will_compile
 from ..simulate.params import (
     DEFAULT_EXAMPLES_PER_SHARD,
     PRESETS,
     closest_parameter,
     merged_params,
 )
-from . import echo_json
+from . import completion, echo_json
 from .progress import progress
+
+COMPILING = "compiling the drawing kernels for this machine, once (about 10 s; later runs load them)"
 
 
 def _parse_param(values: tuple[str, ...]) -> dict:
@@ -46,7 +49,8 @@ def _split_recipe(split_name: str, given: list[str]):
 
 
 @click.command()
-@click.option("--split", "split_name", help="Generate a named split of splits/ and verify its digest.")
+@click.option("--split", "split_name", shell_complete=completion.splits,
+              help="Generate a named split of splits/ and verify its digest.")
 @click.option("-n", "--count", type=click.IntRange(min=1), help="Number of examples.")
 @click.option("--preset", type=click.Choice(sorted(PRESETS)), default=None,
               help="Parameter preset (default: standard).")
@@ -125,7 +129,7 @@ def _generate_masks(split_name, count, preset, seed, n_obs, params, store_split,
     store_split = store_split or "generated"
     if output is None:
         output = str(store_path(".", store_split, "hdf5" if fmt == "hdf5" else "zarr"))
-    with progress(count, f"generating {output}") as update:
+    with progress(count, f"generating {output}", notice=COMPILING if will_compile() else None) as update:
         attrs = generate_store(
             output, count, gen_params, seed or 0, split=store_split, preset=preset, fmt=fmt,
             workers=workers, examples_per_shard=examples_per_shard, overwrite=overwrite,

@@ -72,7 +72,8 @@ def odms(data_dir, out_dir, splits, fmt, overwrite, skip_bad, no_verify, workers
     """Import the official ODMS release into one verified store per split.
 
     DATA_DIR is the release's data/ folder (val/ and test/ inside), as in the authors'
-    repository griffbr/ODMS. Each store is checked against its manifest in splits/.
+    repository griffbr/ODMS. Each store is checked against its manifest in splits/. Run again
+    after an interruption, it keeps the stores already complete and imports the rest.
 
     \b
     Example:
@@ -89,10 +90,14 @@ def odms(data_dir, out_dir, splits, fmt, overwrite, skip_bad, no_verify, workers
         echo_json({"stores": [
             {"split": r.attrs.split, "path": r.path, "examples": r.attrs.counts["examples"],
              "frames": r.attrs.counts["frames"], "oddities": len(r.attrs.oddities),
-             "matches_manifest": r.matches_manifest, "digest": r.attrs.digest, "skipped": r.skipped}
+             "matches_manifest": r.matches_manifest, "digest": r.attrs.digest, "skipped": r.skipped,
+             "kept": r.kept}
             for r in results]})
         return
     for r in results:
+        if r.kept:
+            echo_text(f"kept {r.path}: already complete, matches splits/{r.name}.json")
+            continue
         verdict = (f"matches splits/{r.name}.json" if r.matches_manifest
                    else f"differs from splits/{r.name}.json, stored as split {r.attrs.split}")
         counts = r.attrs.counts

@@ -9,6 +9,7 @@ before the first item (workers starting, kernels loading) is no measure of the r
 from __future__ import annotations
 
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager, contextmanager
@@ -56,15 +57,25 @@ class _Lines:
         click.echo(self.line(), err=True)
 
 
+NOTICE_AFTER = 1.0  # seconds without progress before a notice says what is going on
+
+
 @contextmanager
-def progress(total: int, label: str) -> Iterator[Callable[[int], None]]:
+def progress(total: int, label: str, notice: str | None = None) -> Iterator[Callable[[int], None]]:
     """Yields `update(n)`; nothing is shown before the first update, and no closing line after an
-    error (its one line is the last thing on stderr)."""
+    error (its one line is the last thing on stderr). `notice`, when given, is printed once if no
+    update came within NOTICE_AFTER seconds (work that cannot be counted, such as compiling): an
+    early error comes before it."""
     shown: Any = None  # click's bar or _Lines
+    timer = threading.Timer(NOTICE_AFTER, click.echo, (f"odms-data: {notice}",), {"err": True})
+    timer.daemon = True
+    if notice:
+        timer.start()
 
     def update(n: int) -> None:
         nonlocal shown
         if shown is None:
+            timer.cancel()
             if sys.stderr.isatty():
                 shown = click.progressbar(length=total, label=label, file=sys.stderr, show_eta=True)
                 shown.__enter__()
@@ -78,6 +89,8 @@ def progress(total: int, label: str) -> Iterator[Callable[[int], None]]:
         if shown is not None and not isinstance(shown, _Lines):
             shown.__exit__(None, None, None)
         raise
+    finally:
+        timer.cancel()
     if isinstance(shown, _Lines):
         shown.close()
     elif shown is not None:

@@ -16,7 +16,7 @@ from ..evaluation.ground_truth import (
 from ..evaluation.vosde import DEFAULT_N_OBS
 from ..outputs import check_replaceable, write_text
 from ..protocol import SPLIT_FAMILIES
-from . import echo_json, echo_text
+from . import completion, echo_json, echo_text
 from .progress import Bars, progress
 
 DATA_HELP = (f"Folder of ground-truth stores, or one store (repeatable). Default: ${ENV_VAR} "
@@ -148,7 +148,7 @@ def baseline():
 
 
 @baseline.command()
-@click.argument("stores", nargs=-1)
+@click.argument("stores", nargs=-1, shell_complete=completion.stores_or_splits)
 @click.option("--data", multiple=True, type=click.Path(), help=DATA_HELP)
 @click.option("--n-obs", type=click.IntRange(min=2), default=DEFAULT_N_OBS, show_default=True,
               help="Observations used per example (evenly spaced when an example has more).")
@@ -175,7 +175,7 @@ def vosde(stores, data, n_obs, output, overwrite, as_json):
 
 
 @baseline.command("box-ls")
-@click.argument("stores", nargs=-1)
+@click.argument("stores", nargs=-1, shell_complete=completion.stores_or_splits)
 @click.option("--data", multiple=True, type=click.Path(), help=DATA_HELP)
 @click.option("--n-obs", type=click.IntRange(min=2), default=BOX_LS_N_OBS, show_default=True,
               help="Observations used per example (evenly spaced when an example has more).")

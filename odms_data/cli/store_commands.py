@@ -7,37 +7,47 @@ import numpy as np
 
 from ..outputs import check_replaceable
 from ..store.reader import open_store
-from . import echo_json, echo_text
+from . import completion, echo_json, echo_text
 from .progress import Bars
 
 
-@click.command()
-@click.argument("store", type=click.Path())
-@click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
-def validate(store, as_json):
-    """Check a store: attributes, shapes, invariants, statistics and content digest.
+def _several(reports: list[dict]) -> dict:
+    """The JSON of one store's report, or of several: {"stores": [report, ...]}."""
+    return reports[0] if len(reports) == 1 else {"stores": reports}
 
-    Exit code 0 when valid, 1 when problems were found.
+
+@click.command()
+@click.argument("stores", nargs=-1, required=True, type=click.Path(), shell_complete=completion.stores)
+@click.option("--json", "as_json", is_flag=True,
+              help='Print the report as JSON (several stores: {"stores": [report, ...]}).')
+def validate(stores, as_json):
+    """Check stores: attributes, shapes, invariants, statistics and content digest.
+
+    Exit code 0 when every store is valid, 1 when problems were found in any.
 
     \b
     Example:
       odms-data validate sim-val.zarr
+      odms-data validate odms-stores/*.zarr
     """
     from ..store.validate import validate as validate_store
 
+    reports = []
     with Bars("validating {}") as bars:
-        report = validate_store(store, bars)
+        for store in stores:
+            reports.append(validate_store(store, bars))
     if as_json:
-        echo_json({"path": report.path, "ok": report.ok, "problems": report.problems,
-                   "warnings": report.warnings, "digest": report.digest})
+        echo_json(_several([{"path": r.path, "ok": r.ok, "problems": r.problems, "warnings": r.warnings,
+                             "digest": r.digest} for r in reports]))
     else:
-        for w in report.warnings:
-            echo_text(f"warning: {store}: {w}")
-        for p in report.problems:
-            echo_text(f"problem: {store}: {p}")
-        echo_text(f"{store}: {'valid' if report.ok else 'INVALID'}"
-                   + (f", digest {report.digest}" if report.digest else ""))
-    if not report.ok:
+        for store, report in zip(stores, reports, strict=True):
+            for w in report.warnings:
+                echo_text(f"warning: {store}: {w}")
+            for p in report.problems:
+                echo_text(f"problem: {store}: {p}")
+            echo_text(f"{store}: {'valid' if report.ok else 'INVALID'}"
+                      + (f", digest {report.digest}" if report.digest else ""))
+    if not all(r.ok for r in reports):
         raise click.exceptions.Exit(1)
 
 
@@ -45,15 +55,26 @@ EMPTY = {"masks": ("empty_masks", "empty masks"), "boxes": ("missed_detections",
 
 
 @click.command()
-@click.argument("store", type=click.Path())
-@click.option("--json", "as_json", is_flag=True, help="Print the attributes and summary as JSON.")
-def info(store, as_json):
-    """Summarise a store: split, domain, counts, observations, depth range, generator.
+@click.argument("stores", nargs=-1, required=True, type=click.Path(), shell_complete=completion.stores)
+@click.option("--json", "as_json", is_flag=True,
+              help='Print the attributes and summary as JSON (several stores: {"stores": [summary, ...]}).')
+def info(stores, as_json):
+    """Summarise stores: split, domain, counts, observations, depth range, generator.
 
     \b
     Example:
       odms-data info sim-val.zarr
+      odms-data info odms-stores/*.zarr
     """
+    summaries = [_summary(store) for store in stores]
+    if as_json:
+        echo_json(_several([summary for summary, _ in summaries]))
+        return
+    echo_text("\n\n".join(text for _, text in summaries))
+
+
+def _summary(store: str) -> tuple[dict, str]:
+    """One store's summary, as JSON and as text."""
     with open_store(store) as s:
         a = s.attrs
         empty_key, empty_text = EMPTY[s.kind]
@@ -65,9 +86,6 @@ def info(store, as_json):
             empty_key: int(s.empty_frames.sum()),
             "example_ids": {"first": s.example_ids[0], "last": s.example_ids[-1]} if len(s) else None,
         }
-    if as_json:
-        echo_json(summary)
-        return
     gen = a.generator
     lines = [
         f"store       {store} ({s.format}, format version {a.format_version})",
@@ -88,11 +106,11 @@ def info(store, as_json):
         lines.append(f"source      {a.source}")
     if a.oddities:
         lines.append(f"oddities    {len(a.oddities)} recorded (see --json)")
-    echo_text("\n".join(lines))
+    return summary, "\n".join(lines)
 
 
 @click.command()
-@click.argument("src", type=click.Path())
+@click.argument("src", type=click.Path(), shell_complete=completion.stores)
 @click.argument("dst", type=click.Path())
 @click.option("--format", "fmt", type=click.Choice(["zarr", "hdf5"]), default=None,
               help="Backend of DST (default: from its suffix, .h5/.hdf5 = hdf5, else zarr).")
@@ -116,7 +134,7 @@ def convert(src, dst, fmt, overwrite, as_json):
 
 
 @click.command()
-@click.argument("store", type=click.Path())
+@click.argument("store", type=click.Path(), shell_complete=completion.stores)
 @click.argument("example_id")
 @click.option("-o", "--output", type=click.Path(), required=True,
               help="Image file to write (PNG, or another format by its suffix).")

@@ -2,8 +2,8 @@
 
 The data folders are `--data DIR` (repeatable; a store path works too, and so does a store's
 URL, s3://bucket/x.zarr), else the folders in the environment variable ODMS_DATA (separated by
-':'), else ~/.cache/odms-data. Every store
-there (`*.zarr`, `*.h5`, `*.hdf5`, `*.hdf`, generated or imported) serves the split its attributes
+':'), else the user's cache folder ($XDG_CACHE_HOME/odms-data, else ~/.cache/odms-data). Every
+store there (`*.zarr`, `*.h5`, `*.hdf5`, `*.hdf`, generated or imported) serves the split its attributes
 name, and its example ids start with `<split>/`.
 
 Scoring reads the labels only. Before a leaderboard entry records a store's digest,
@@ -26,9 +26,10 @@ from ..store.digest import check_recorded_digest
 from ..store.format import format_of_name
 from ..store.manifests import check_against_manifest, load_manifest, split_names
 from ..store.reader import open_store
+from ..user_cache import SHOWN, cache_home
 
 ENV_VAR = "ODMS_DATA"
-DEFAULT_DATA = "~/.cache/odms-data"
+DEFAULT_DATA = SHOWN  # the default data folder, as help texts name it
 
 Location = Path | str  # a local path, or a store's URL, kept as text (a Path folds its '//')
 
@@ -45,7 +46,7 @@ def data_locations(given: Sequence[str] = ()) -> list[Location]:
     env = os.environ.get(ENV_VAR, "")
     if env.strip():
         return [Path(p) for p in env.split(os.pathsep) if p]
-    return [Path(DEFAULT_DATA).expanduser()]
+    return [cache_home()]
 
 
 def _is_store(path: Path) -> bool:

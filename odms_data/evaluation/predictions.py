@@ -226,13 +226,19 @@ def read_predictions(path: str | Path, max_rows: int | None = None) -> Predictio
     binary, hashed = _open(path)
     with binary:
         rows = _read_rows(path, binary, max_rows)
-    rows = [r if len(r) == 3 else ["", "", ""] for r in rows]  # the others are blank (see _parse)
-    frame = pd.DataFrame(rows, columns=list(COLUMNS), dtype=object)
-    frame["line"] = np.arange(2, len(frame) + 2)
+    frame = _frame(rows)
     frame["d1"] = _check_cells(path, frame)
     frame = frame.astype({"split": str, "example_id": str})
     return Predictions(path, frame[["split", "example_id", "d1", "line"]].reset_index(drop=True),
                        hashed.sha.hexdigest())
+
+
+def _frame(rows: list[list[str]]) -> pd.DataFrame:
+    """The rows as text columns with their line numbers (the header is line 1)."""
+    rows = [r if len(r) == 3 else ["", "", ""] for r in rows]  # the others are blank (see _parse)
+    frame = pd.DataFrame(rows, columns=list(COLUMNS), dtype=object)
+    frame["line"] = np.arange(2, len(frame) + 2)
+    return frame
 
 
 def _read_rows(path: str, binary: io.BufferedReader, max_rows: int | None) -> list[list[str]]:
@@ -251,6 +257,7 @@ def _read_rows(path: str, binary: io.BufferedReader, max_rows: int | None) -> li
             first, lines = first + k + 1, lines[k + 1 :]
         rows += _parse(path, first, lines)
         if max_rows is not None and len(rows) > max_rows:
+            _check_duplicates(path, _frame(rows))  # one row too many is most often a repeated one
             raise InputError(
                 f"{path}: has more than {max_rows} rows, but the ground-truth stores hold {max_rows} "
                 "examples in all (one row each); are they the right stores?"
@@ -283,6 +290,19 @@ def _check_cells(path: str, frame: pd.DataFrame) -> np.ndarray:
     return d1
 
 
+def _check_duplicates(path: str, f: pd.DataFrame) -> None:
+    """InputError naming the lines of rows that repeat a (split, example_id) pair."""
+    given = f[f["example_id"] != ""]
+    dup = given.duplicated(["split", "example_id"], keep=False).to_numpy()
+    if dup.any():
+        ids = list(dict.fromkeys(given["example_id"][dup]))
+        lines = given[dup].groupby("example_id", sort=False)["line"].apply(list)
+        shown = [f"{i!r} (lines {', '.join(map(str, lines[i][:SHOW]))})" for i in ids[:SHOW]]
+        raise InputError(
+            f"{path}: {len(ids)} example id(s) appear more than once: {_listing(shown, len(ids))}"
+        )
+
+
 def check_against(
     preds: Predictions, truth_ids: dict[str, list[str]], required: dict[str, list[str]] | None = None,
     *, allow_partial: bool = False,
@@ -310,14 +330,7 @@ def check_against(
         raise InputError(
             f"{path}: example_id does not start with '<split>/' in {_lines(f, ~prefixed, 'example_id')}"
         )
-    dup = f.duplicated(["split", "example_id"], keep=False).to_numpy()
-    if dup.any():
-        ids = list(dict.fromkeys(f["example_id"][dup]))
-        lines = f[dup].groupby("example_id", sort=False)["line"].apply(list)
-        shown = [f"{i!r} (lines {', '.join(map(str, lines[i][:SHOW]))})" for i in ids[:SHOW]]
-        raise InputError(
-            f"{path}: {len(ids)} example id(s) appear more than once: {_listing(shown, len(ids))}"
-        )
+    _check_duplicates(path, f)
     missing = {}
     for split, rows in f.groupby("split", sort=True):
         expected = set(truth_ids[split])
@@ -353,3 +366,4 @@ def write_predictions(
     with atomic_file(path, overwrite=overwrite, option="output") as partial:
         frame.to_csv(partial, index=False, lineterminator="\n")
     return len(frame)
+

@@ -21,12 +21,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import DigestMismatchError, InputError, OutputExistsError
+from ..errors import DigestMismatchError, InputError, OdmsError, OutputExistsError
 from ..paths import listed_inside
 from ..protocol import OFFICIAL_SPLITS, ROBOT_FRAMES, ROBOT_N_OBS, ROBOT_WINDOWS, protocol_windows
 from ..store.format import StoreAttrs, store_path
 from ..store.manifests import check_against_manifest, load_manifest, split_names
 from ..store.oddity import SKIPPED, Oddity
+from ..store.reader import open_store
 from .builder import Importer, Progress
 from .decoding import Workers
 from .mask_files import MaskFile
@@ -229,7 +230,10 @@ def import_release(
 ) -> list[ImportResult]:
     """Import the release at `data_dir` into `<out_dir>/<split>.zarr` (or .h5) for each split.
 
-    Every folder of every requested split is scanned before anything is written. With
+    A store already at its path, complete and matching its split's manifest (one an interrupted
+    import finished), is kept and its split not imported again, unless `overwrite`; the other
+    requested splits are imported. Every folder of every split to import is scanned before
+    anything is written. With
     `skip_bad`, bad folders are left out and recorded as oddities of kind "skipped"; such a store
     (or, with `verify=False`, any store differing from its manifest) is named `<split>-modified`,
     and so are its ids (`<split>-modified/...`).
@@ -239,14 +243,35 @@ def import_release(
     data_dir, out_dir = Path(data_dir), Path(out_dir)
     names = list(splits or OFFICIAL_SPLITS)
     _check_request(data_dir, out_dir, names, fmt)
-    scans = {name: scan_split(data_dir, name, skip_bad) for name in names}
+    kept = {} if overwrite else {n: r for n in names if (r := kept_store(store_path(out_dir, n, fmt), n))}
+    scans = {name: scan_split(data_dir, name, skip_bad) for name in names if name not in kept}
     out: list[ImportResult] = []
     with Workers(workers) as pool:
         for name in names:
+            if name in kept:
+                out.append(kept[name])
+                continue
             path = store_path(out_dir, name, fmt)
             source = SplitImporter(name, *scans[name], path, verify, skip_bad)
             out.append(source.write(path, fmt, pool, overwrite=overwrite, progress=progress))
     return out
+
+
+def kept_store(path: Path, name: str) -> ImportResult | None:
+    """The store at `path` as a result to keep, when an earlier import left it complete and
+    matching split `name`'s manifest (the import resumes after it); None otherwise, so that a
+    store that is not such is refused as existing (or replaced with `overwrite`)."""
+    if not path.exists():
+        return None
+    try:
+        with open_store(str(path)) as store:
+            attrs = store.attrs
+        if attrs.split != name:
+            return None
+        check_against_manifest(attrs, load_manifest(name), str(path))
+    except (OdmsError, OSError):
+        return None
+    return ImportResult(str(path), name, attrs, kept=True)
 
 
 def _verify(attrs: StoreAttrs, name: str, path: Path, strict: bool) -> None:

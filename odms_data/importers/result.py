@@ -67,13 +67,14 @@ class SynthiaSummary:
 
 @dataclass(frozen=True)
 class ImportResult:
-    """One store an importer wrote: its path, the split name asked for, its attributes and (SYNTHIA)
-    the summary of its sequences."""
+    """One store an importer wrote, or kept: its path, the split name asked for, its attributes and
+    (SYNTHIA) the summary of its sequences."""
 
     path: str
     name: str
     attrs: StoreAttrs
     summary: SynthiaSummary | None = None
+    kept: bool = False  # the store was there already, complete and matching its manifest (a resumed import)
 
     @property
     def skipped(self) -> list[str]:

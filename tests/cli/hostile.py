@@ -22,6 +22,7 @@ EFBIG instead of ENOSPC).
 from __future__ import annotations
 
 import argparse
+import gc
 import hashlib
 import json
 import os
@@ -150,11 +151,13 @@ def run_inprocess(args: list[str], cwd: Path) -> Result:
 
     here = os.getcwd()
     os.chdir(cwd)
+    gc.collect()  # what earlier tests left for the collector warns now, not as this command's output
     t = time.perf_counter()
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             r = CliRunner().invoke(main, args)
+            gc.collect()  # and what this command left warns as its own
     finally:
         os.chdir(here)
     err = r.stderr + "".join(f"{w.category.__name__}: {w.message}\n" for w in caught)
@@ -241,6 +244,8 @@ def run_process(case: Case, args: list[str], cwd: Path, code: Path | None) -> Re
     timer.cancel()
     for th in readers:
         th.join()
+    proc.stdout.close()
+    proc.stderr.close()
     err = streams["err"].decode(errors="replace")
     err += f"\n(killed after {case.timeout:.0f} s)" if killed else ""
     result = Result(proc.returncode, streams["out"].decode(errors="replace"), err,

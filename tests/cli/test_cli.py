@@ -65,6 +65,26 @@ def test_validate_exits_1_and_lists_problems(tmp_path):
     assert "problem:" in v.stdout and "INVALID" in v.stdout
 
 
+def test_validate_and_info_take_several_stores(tmp_path):
+    import json
+
+    a, b = tmp_path / "a.zarr", tmp_path / "b.h5"
+    generate(str(a), 3, PRESETS["standard"], 1, workers=1)
+    generate(str(b), 4, PRESETS["perturb"], 2, split="other", workers=1)
+    info = odms("info", str(a), str(b))
+    assert info.returncode == 0, info.stderr
+    assert f"store       {a} (zarr" in info.stdout and f"store       {b} (hdf5" in info.stdout
+    assert "split       generated" in info.stdout and "split       other" in info.stdout
+    both = json.loads(odms("info", str(a), str(b), "--json").stdout)
+    assert [(s["path"], s["counts"]["examples"]) for s in both["stores"]] == [(str(a), 3), (str(b), 4)]
+    v = odms("validate", str(a), str(b))
+    assert v.returncode == 0 and v.stdout.count(": valid, digest sha256:") == 2, v.stdout
+    (a / "d1" / "c" / "0").unlink()
+    v = odms("validate", str(a), str(b), "--json")
+    assert v.returncode == 1
+    assert [r["ok"] for r in json.loads(v.stdout)["stores"]] == [False, True]
+
+
 @pytest.mark.parametrize("args,fragments", [
     (["generate"], ["give --split NAME or -n COUNT"]),
     (["generate", "--split", "sim-nope"], ["unknown split 'sim-nope'", "sim-val"]),
@@ -184,3 +204,24 @@ def test_help_names_the_environment_and_completion():
            "COMP_CWORD": "1"}
     done = subprocess.run([sys.executable, "-m", "odms_data.cli"], env=env, capture_output=True, text=True)
     assert "plain,export" in done.stdout.splitlines()
+
+
+def _completions(words: str, cwd: Path) -> list[str]:
+    cword = len(words.split()) - (0 if words.endswith(" ") else 1)
+    env = {**os.environ, "_ODMS_DATA_COMPLETE": "bash_complete", "COMP_WORDS": words,
+           "COMP_CWORD": str(cword)}
+    done = subprocess.run([sys.executable, "-m", "odms_data.cli"], env=env, capture_output=True, text=True,
+                          cwd=cwd)
+    return done.stdout.splitlines()
+
+
+def test_completion_offers_split_names_and_store_paths(tmp_path):
+    (tmp_path / "runs" / "old.zarr").mkdir(parents=True)
+    (tmp_path / "sim-val.zarr").mkdir()
+    (tmp_path / "train.h5").write_bytes(b"")
+    (tmp_path / "notes.txt").write_text("not a store")
+    assert _completions("odms-data generate --split sim-v", tmp_path) == ["plain,sim-val"]
+    stores = ["plain,runs/", "plain,sim-val.zarr", "plain,train.h5"]
+    assert _completions("odms-data info ", tmp_path) == stores
+    assert _completions("odms-data validate runs/", tmp_path) == ["plain,runs/old.zarr"]
+    assert _completions("odms-data baseline vosde robot-t", tmp_path) == ["plain,robot-test"]

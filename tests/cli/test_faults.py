@@ -31,10 +31,9 @@ def kill_at_random_moments(args: list[str], out: Path, expected_digest: str, see
     rng = random.Random(seed)
     completed_before_kill = 0
     for _ in range(KILLS):
-        proc = start(*args, "--overwrite")
-        time.sleep(rng.uniform(0.0, 2.5))
-        os.kill(proc.pid, signal.SIGKILL)
-        proc.wait()
+        with start(*args, "--overwrite") as proc:  # its stderr pipe closed, as it waits for it
+            time.sleep(rng.uniform(0.0, 2.5))
+            os.kill(proc.pid, signal.SIGKILL)
         if out.exists():
             # the rename into place is the last step: whatever is there is a whole store
             report = validate(str(out))
@@ -72,15 +71,14 @@ def test_convert_survives_kill_9(tmp_path, reference):
 
 def test_second_writer_is_refused(tmp_path):
     out = tmp_path / "busy.zarr"
-    first = start("generate", "-n", "5000", "-o", str(out), "--workers", "1")
-    lock = Path(str(out) + ".lock")
-    deadline = time.monotonic() + 60
-    while not lock.exists() and time.monotonic() < deadline:
-        time.sleep(0.05)
-    second = subprocess.run([sys.executable, "-m", "odms_data.cli", "generate", "-n", "5", "-o", str(out)],
-                            capture_output=True, text=True)
-    first.kill()
-    first.wait()
+    with start("generate", "-n", "5000", "-o", str(out), "--workers", "1") as first:
+        lock = Path(str(out) + ".lock")
+        deadline = time.monotonic() + 60
+        while not lock.exists() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        second = subprocess.run([sys.executable, "-m", "odms_data.cli", "generate", "-n", "5", "-o",
+                                 str(out)], capture_output=True, text=True)
+        first.kill()
     assert second.returncode == 2
     assert f"another odms-data process (pid {first.pid}) is writing this store" in second.stderr
     assert len(second.stderr.strip().splitlines()) == 1

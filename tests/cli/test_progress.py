@@ -1,6 +1,11 @@
-"""Time estimates: not from the start-up before the first item, and training's with its validations."""
+"""Time estimates: not from the start-up before the first item, and training's with its validations;
+the notice while the kernels compile on first use."""
 
 from __future__ import annotations
+
+import os
+import subprocess
+import sys
 
 import pytest
 
@@ -45,3 +50,23 @@ def test_training_time_left_counts_the_validations_to_come():
     assert s.seconds_left == pytest.approx(5 * 1 + 1 * 3)  # the last iteration validates too
     done = Status(100, 100, 8, 0, 103, val_every=10, first_seconds=1, val_seconds=3, validations=1)
     assert done.seconds_left == pytest.approx(0)
+
+
+def test_first_use_says_the_kernels_compile_and_only_then(tmp_path):
+    """The first generate in a fresh cache compiles the kernels (seconds of silence otherwise) and
+    says so in one line; a bad argument still gets its one line alone, and a later run no notice."""
+    env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path / "cache")}
+    env.pop("NUMBA_CACHE_DIR", None)
+
+    def generate(*args: str) -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, "-m", "odms_data.cli", "generate", "-n", "2", *args],
+                              cwd=tmp_path, env=env, capture_output=True, text=True)
+
+    bad = generate("--param", "d_max=abc", "-o", "bad.zarr")
+    assert bad.returncode == 2 and len(bad.stderr.splitlines()) == 1, bad.stderr
+    first = generate("-o", "a.zarr")
+    assert first.returncode == 0, first.stderr
+    assert first.stderr.splitlines()[0] == ("odms-data: compiling the drawing kernels for this machine, once "
+                                            "(about 10 s; later runs load them)")
+    again = generate("-o", "b.zarr")
+    assert again.returncode == 0 and "compiling" not in again.stderr, again.stderr

@@ -193,3 +193,14 @@ def test_schema_describes_the_columns_and_accepts_valid_rows(tmp_path):
     for row in frame[list(COLUMNS)].to_dict("records"):
         jsonschema.validate(row, schema)
     assert np.isfinite(frame["d1"]).all()
+
+
+def test_one_duplicate_row_in_a_full_file_names_its_lines(tmp_path, data):
+    """Every example once plus one repeated row: the file has one row more than the stores hold
+    examples, and the message names the repeat, not the stores."""
+    rows = [*truth_rows(), *truth_rows("more-val", [1.0, 2.0, 3.0])]
+    r = score_file(tmp_path, data, csv(*rows, rows[1]))
+    assert r.exit_code == 2, r.output
+    assert r.stderr.splitlines() == [
+        f"odms-data: error: {tmp_path / 'p.csv'}: 1 example id(s) appear more than once: "
+        "'tiny-val/001' (lines 3, 10)"]

@@ -3,6 +3,7 @@ written here for each kind of bad input."""
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import cv2
@@ -105,6 +106,28 @@ def test_masks_round_trip_pixel_for_pixel(official_stores, official_data_dir, sp
         assert ex.n == len(files)
         for m, f in zip(ex.masks, files, strict=True):
             np.testing.assert_array_equal(m, cv2.imread(str(f), cv2.IMREAD_GRAYSCALE) > 0)
+
+
+def _stamps(folder: Path) -> dict[str, int]:
+    return {str(p.relative_to(folder)): p.stat().st_mtime_ns for p in folder.rglob("*")}
+
+
+def test_an_import_run_again_keeps_the_complete_stores_and_imports_the_rest(
+        tmp_path, official_stores, official_data_dir):
+    """An import stopped after robot-val: run again, it keeps that store untouched and imports
+    robot-test, instead of refusing robot-val as existing."""
+    out = tmp_path / "stores"
+    out.mkdir()
+    shutil.copytree(official_stores["robot-val"], out / "robot-val.zarr")
+    before = _stamps(out / "robot-val.zarr")
+    r = CliRunner().invoke(main, ["import", "odms", str(official_data_dir), "-o", str(out), "--split",
+                                  "robot-val", "--split", "robot-test", "--workers", "1"])
+    assert r.exit_code == 0, r.output
+    assert f"kept {out / 'robot-val.zarr'}: already complete, matches splits/robot-val.json" in r.stdout
+    assert f"wrote {out / 'robot-test.zarr'}: 2640 examples" in r.stdout
+    assert _stamps(out / "robot-val.zarr") == before
+    with open_store(str(out / "robot-test.zarr")) as s:
+        assert s.attrs.digest == load_manifest("robot-test").digest
 
 
 # --- small fake releases: bad input ------------------------------------------------------------
@@ -211,6 +234,8 @@ def test_content_differing_from_the_manifest_is_refused(tmp_path):
     assert result.exit_code == 0, result.output
     assert "stored as split normal-val-modified" in result.output
     assert validate(str(out / "normal-val.zarr")).ok
+    line = _one_line_error(run_import(data, out, "normal", "--no-verify"), "normal-val.zarr")
+    assert "already exists" in line  # complete, but not the manifest's: not kept as a finished split
 
 
 def test_skip_bad_imports_the_rest_and_reports(tmp_path):

@@ -63,8 +63,27 @@ def s3():
         fs = s3fs.S3FileSystem()
         fs.mkdir(BUCKET)
         yield fs
-        s3fs.S3FileSystem.clear_instance_cache()
+        _close_sessions()
     server.stop()
+
+
+def _close_sessions() -> None:
+    """Close the connections of the S3 filesystems made in this process, then forget them. s3fs
+    closes one only when it is collected, giving the close 0.1 s on its event loop, and not at all
+    for an asynchronous one (zarr's, on zarr's loop): aiohttp then warns that a session was never
+    closed."""
+    from fsspec.asyn import sync
+    from zarr.core.sync import sync as zarr_sync
+
+    for fs in list(s3fs.S3FileSystem._cache.values()):
+        client = getattr(fs, "_s3creator", None)
+        if client is None:
+            continue
+        if fs.asynchronous:  # made by zarr, its session on zarr's event loop
+            zarr_sync(client.__aexit__(None, None, None))
+        else:
+            sync(fs.loop, client.__aexit__, None, None, None)
+    s3fs.S3FileSystem.clear_instance_cache()
 
 
 def odms(*args: str) -> subprocess.CompletedProcess:
