@@ -89,12 +89,20 @@ def test_score_outputs_table_markdown_and_json(tmp_path, official_like):
 
 
 def test_entry_is_schema_valid_and_joins_the_leaderboard(tmp_path, official_like):
+    """An entry records the digests of the stores it was scored against, and joins the board only
+    when they are the split manifests' (here the tiny stores' are not: the official ones are put in)."""
+    from dataclasses import replace
+
     from odms_data.evaluation.ground_truth import find_stores, load_truth
     from odms_data.evaluation.predictions import read_predictions
     from odms_data.evaluation.scoring import score
+    from odms_data.store.manifests import load_manifest
 
     truths = {s: load_truth(p) for s, p in find_stores([official_like]).items()}
     report = score(read_predictions(_preds(tmp_path, 1.05)), truths)
+    with pytest.raises(InputError, match="scored/stores/driving-test: sha256:.* is not the digest of split"):
+        entry_from_report(report, "Mine")
+    report = replace(report, digests={s: load_manifest(s).digest for s in report.digests})
     entry = entry_from_report(report, "Mine", link="https://example.org/mine").to_json()
     assert entry_problems(entry) == []
     assert entry["figures"] == "computed" and entry["results"]["test"]["all"] == pytest.approx(5.0)
