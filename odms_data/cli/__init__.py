@@ -66,7 +66,7 @@ COMMANDS = {  # command name -> (module of this package, attribute): imported on
     "show": ("store_commands", "show"),
     "score": ("score_commands", "score"),
     "baseline": ("score_commands", "baseline"),
-    "leaderboard": ("score_commands", "leaderboard"),
+    "leaderboard": ("leaderboard_commands", "leaderboard"),
     "train": ("network_commands", "train"),
     "predict": ("network_commands", "predict"),
 }
