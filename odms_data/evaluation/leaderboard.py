@@ -172,10 +172,12 @@ class LeaderboardEntry:
         return cls(**d)
 
 
-def load_entries(folder: Path | None = None, benchmark: str = "odms") -> list[LeaderboardEntry]:
-    """Every entry of `folder` (default: the shipped leaderboard/) on `benchmark`, checked; names
-    must be unique."""
-    folder = Path(folder) if folder else resource_dir("leaderboard")
+def shipped_folder() -> Path:
+    """The leaderboard/ shipped with odms-data."""
+    return resource_dir("leaderboard")
+
+
+def _folder_entries(folder: Path) -> list[tuple[Path, LeaderboardEntry]]:
     if not folder.is_dir():
         siblings = [p.name for p in folder.parent.iterdir() if p.is_dir()] if folder.parent.is_dir() else []
         close = difflib.get_close_matches(folder.name, siblings, n=1)
@@ -183,10 +185,17 @@ def load_entries(folder: Path | None = None, benchmark: str = "odms") -> list[Le
         raise InputError(f"{folder}: no such folder of leaderboard entries{hint}")
     if not any(folder.glob("*.json")):
         raise InputError(f"{folder}: holds no leaderboard entries (*.json files)")
+    return [(path, LeaderboardEntry.from_json(safe_json.load_file(path), str(path)))
+            for path in sorted(folder.glob("*.json"))]
+
+
+def load_entries(*folders: Path | str, benchmark: str = "odms") -> list[LeaderboardEntry]:
+    """Every entry of `folders` (default: the shipped leaderboard/; a folder named twice is read
+    once) on `benchmark`, checked; names must be unique across them all."""
+    unique = dict.fromkeys(Path(f).resolve() for f in folders or [shipped_folder()])
     entries: list[LeaderboardEntry] = []
     seen: dict[str, Path] = {}
-    for path in sorted(folder.glob("*.json")):
-        entry = LeaderboardEntry.from_json(safe_json.load_file(path), str(path))
+    for path, entry in (pair for folder in unique for pair in _folder_entries(folder)):
         key = name_key(entry.name)
         if key in seen:
             raise InputError(f"{path}: entry name {entry.name!r} is also used by {seen[key]}")
@@ -258,7 +267,9 @@ def render_markdown(entries: list[LeaderboardEntry], family: str = "test", metri
             cells=markdown_join(" | ", cells),
             figures="published" if e.figures == "published" else "computed here"))
     cites = sorted({e.citation for e in entries if e.citation and e.results.get(family)})
-    lines.append(markdown("\nSources: {cites}.\n", cites=markdown_join("; ", cites)))
+    if cites:
+        lines.append(markdown("\nSources: {cites}.", cites=markdown_join("; ", cites)))
+    lines.append(Markdown(""))
     return markdown_join("\n", lines)
 
 
