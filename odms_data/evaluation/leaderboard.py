@@ -2,7 +2,8 @@
 
 Entries are either *published* (figures as printed in the cited work) or *computed* (scored by
 odms-data from a predictions file, with the store digests they were scored against). Each is on
-one benchmark (BENCHMARKS): ODMS (the default) or ODMD, whose sets are ODMD's own four.
+one benchmark (BENCHMARKS): ODMS (the default), ODMS-detection (ODMD's boxes of the ODMS sets,
+odms-detect-*) or ODMD, whose sets are ODMD's own four.
 """
 
 from __future__ import annotations
@@ -51,6 +52,7 @@ class Benchmark:
 ODMD_DOMAINS = ("normal", "perturb_motion", "perturb_detection", "robot")
 BENCHMARKS = {
     "odms": Benchmark("ODMS", OFFICIAL_DOMAINS, ABS_UNITS, "", 1),
+    "odms-detection": Benchmark("ODMS-detection", OFFICIAL_DOMAINS, ABS_UNITS, "odms-detect-", 1),
     "odmd": Benchmark("ODMD", ODMD_DOMAINS, dict.fromkeys(ODMD_DOMAINS, "cm"), "odmd-", 2),
 }
 
@@ -189,19 +191,24 @@ def _folder_entries(folder: Path) -> list[tuple[Path, LeaderboardEntry]]:
             for path in sorted(folder.glob("*.json"))]
 
 
-def load_entries(*folders: Path | str, benchmark: str = "odms") -> list[LeaderboardEntry]:
-    """Every entry of `folders` (default: the shipped leaderboard/; a folder named twice is read
-    once) on `benchmark`, checked; names must be unique across them all."""
+def entry_files(*folders: Path | str) -> list[tuple[Path, LeaderboardEntry]]:
+    """(file, entry) for every entry of `folders` (default: the shipped leaderboard/; a folder
+    named twice is read once), checked; names must be unique across them all."""
     unique = dict.fromkeys(Path(f).resolve() for f in folders or [shipped_folder()])
-    entries: list[LeaderboardEntry] = []
+    out: list[tuple[Path, LeaderboardEntry]] = []
     seen: dict[str, Path] = {}
     for path, entry in (pair for folder in unique for pair in _folder_entries(folder)):
         key = name_key(entry.name)
         if key in seen:
             raise InputError(f"{path}: entry name {entry.name!r} is also used by {seen[key]}")
         seen[key] = path
-        entries.append(entry)
-    return [e for e in entries if e.benchmark == benchmark]
+        out.append((path, entry))
+    return out
+
+
+def load_entries(*folders: Path | str, benchmark: str = "odms") -> list[LeaderboardEntry]:
+    """The entries of `folders` (as `entry_files` reads them) on `benchmark`."""
+    return [e for _, e in entry_files(*folders) if e.benchmark == benchmark]
 
 
 def family_all(entry: LeaderboardEntry, family: str) -> float | None:
