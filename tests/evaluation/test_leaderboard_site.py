@@ -128,3 +128,39 @@ def test_the_site_replaces_only_an_earlier_site(tmp_path):
     for page in site.rglob("*.html"):  # self-contained: nothing loaded from elsewhere
         text = page.read_text()
         assert " src=" not in text and "<link" not in text and "@import" not in text and "url(" not in text
+
+
+def test_verify_rescores_entries_that_ship_predictions_and_names_what_changed(official_entry, tmp_path):
+    """VOS-DE's predictions over the imported official stores, as an entry with its CSV beside it,
+    and a copy whose robot figure (and All with it) was edited: verify keeps the first and names
+    the edited figures of the second."""
+    from odms_data.evaluation.evaluate import Evaluation
+    from odms_data.evaluation.leaderboard import entry_from_report
+
+    stores, board = official_entry / "stores", tmp_path / "board"
+    board.mkdir()
+    run = CliRunner().invoke
+    r = run(main, ["baseline", "vosde", "--data", str(stores), "-o", str(board / "mine.csv")])
+    assert r.exit_code == 0, r.output
+    preds, report = Evaluation([str(stores)]).score(board / "mine.csv")
+    entry = entry_from_report(report, "Mine", predictions_sha256=preds.sha256).to_json()
+    (board / "mine.json").write_text(json.dumps(entry))
+    edited = json.loads(json.dumps(entry))
+    edited["name"] = "Mine, edited"
+    edited["results"]["test"]["robot"]["percent"] += 0.4
+    edited["results"]["test"]["all"] += 0.1
+    (board / "edited.json").write_text(json.dumps(edited))
+    (board / "edited.csv").write_bytes((board / "mine.csv").read_bytes())
+    r = run(main, ["leaderboard", "verify", "--dir", str(board), "--data", str(stores)])
+    assert r.exit_code == 1, r.output
+    lines = r.stdout.splitlines()
+    robot, total = entry["results"]["test"]["robot"]["percent"], entry["results"]["test"]["all"]
+    assert lines[0] == f"Mine, edited ({board / 'edited.json'}): 2 figures no longer match"
+    assert lines[1:3] == [
+        f"  test robot percent: the entry says {robot + 0.4}, its predictions now give {robot}",
+        f"  test All: the entry says {total + 0.1}, its predictions now give {total}"]
+    assert lines[3].startswith(f"Mine ({board / 'mine.json'}): all ") and lines[3].endswith(" figures match")
+    assert lines[4].startswith("2 entries ship their predictions, 1 no longer match; 30 ship none")
+    (board / "edited.csv").write_text("split,example_id,d1\n")
+    r = run(main, ["leaderboard", "verify", "--dir", str(board), "--data", str(stores)])
+    assert "edited.csv is not the file the entry was scored from" in r.stdout, r.output
