@@ -235,7 +235,9 @@ def test_a_hostile_leaderboard_entry_stays_in_its_row():
     first = load_entries()[0]
     with pytest.raises(InputError, match="link"):  # an entry is checked when made: no script link
         replace(first, link="javascript:alert(1)")
-    entry = replace(first, name="Evil | 0.1 |\n| 1 | <script>x</script>",
+    with pytest.raises(InputError, match="name .*white space"):  # a name is one line
+        replace(first, name="Evil | 0.1 |\n| 1 | x")
+    entry = replace(first, name="Evil | 0.1 | | 1 | <script>x</script>",
                     link="https://e.org/x) [y](javascript:alert(1)", training_data="[a](javascript:b)",
                     citation="<b>me</b>")
     board = render_markdown([entry], "test")

@@ -1,4 +1,4 @@
-"""`odms-data score`, `odms-data compare`, `odms-data baseline vosde | box-ls` and `odms-data leaderboard`."""
+"""`odms-data score`, `odms-data compare` and `odms-data baseline vosde | box-ls`."""
 
 from __future__ import annotations
 
@@ -15,7 +15,6 @@ from ..evaluation.ground_truth import (
 )
 from ..evaluation.vosde import DEFAULT_N_OBS
 from ..outputs import check_replaceable, write_text
-from ..protocol import SPLIT_FAMILIES
 from . import completion, echo_json, echo_text
 from .progress import Bars, progress
 
@@ -227,35 +226,3 @@ def _baseline(stores, data, output, overwrite, as_json, name, method, settings, 
                   f"{c.ill_conditioned} ill-conditioned, {c.flagged} with {flagged} among the used "
                   "observations")
     click.echo(f"wrote {output}: {n_rows} predictions ({name}, {how})")
-
-
-@click.command()
-@click.option("--family", type=click.Choice(SPLIT_FAMILIES), default="test", show_default=True,
-              help="Which sets to show.")
-@click.option("--metric", type=click.Choice(["percent", "abs"]), default="percent", show_default=True,
-              help="Mean percent error or mean absolute error (cm; driving in m).")
-@click.option("--dir", "folder", type=click.Path(file_okay=False), default=None,
-              help="Folder of entries (default: the leaderboard/ shipped with odms-data).")
-@click.option("--benchmark", type=click.Choice(["odms", "odmd"]), default="odms", show_default=True,
-              help="ODMS's table, or ODMD's (its sets normal, perturb motion, perturb detection, robot).")
-@click.option("--json", "as_json", is_flag=True, help="Print the ranked entries as JSON (all metrics).")
-def leaderboard(family, metric, folder, benchmark, as_json):
-    """Print the leaderboard as markdown, sorted by All (lowest error first).
-
-    \b
-    Examples:
-      odms-data leaderboard
-      odms-data leaderboard --family val --metric abs
-      odms-data leaderboard --benchmark odmd
-    """
-    from ..evaluation.leaderboard import family_all, load_entries, ranked, render_markdown
-
-    entries = load_entries(folder, benchmark)
-    if as_json:
-        keys = ("name", "n_obs", "training_data", "radial_input", "figures", "link", "citation")
-        echo_json([
-            {"rank": rank, **{k: getattr(e, k) for k in keys}, "all": family_all(e, family),
-             "results": e.results[family]}
-            for rank, e in enumerate(ranked(entries, family), 1)])
-        return
-    click.echo(render_markdown(entries, family, metric, benchmark), nl=False)

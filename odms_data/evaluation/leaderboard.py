@@ -2,7 +2,8 @@
 
 Entries are either *published* (figures as printed in the cited work) or *computed* (scored by
 odms-data from a predictions file, with the store digests they were scored against). Each is on
-one benchmark (BENCHMARKS): ODMS (the default) or ODMD, whose sets are ODMD's own four.
+one benchmark (BENCHMARKS): ODMS (the default), ODMS-detection (ODMD's boxes of the ODMS sets,
+odms-detect-*) or ODMD, whose sets are ODMD's own four.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ import difflib
 import hashlib
 import json
 import math
+import unicodedata
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
@@ -21,14 +23,14 @@ from .. import safe_json
 from .._version import __version__
 from ..errors import InputError
 from ..protocol import BENCHMARKS as PROTOCOL_BENCHMARKS
-from ..protocol import SPLIT_FAMILIES
+from ..protocol import SPLIT_FAMILIES, Benchmark
 from ..resources import resource_dir
-from ..shown_text import markdown_link, markdown_text
+from ..shown_text import Markdown, markdown, markdown_join, markdown_link, one_line, web_link
+from ..store.manifests import load_manifest, split_names
 from .scoring import ScoreReport
 
-# the benchmarks with a table of their own (protocol.py's records); ODMS-detection's figures sit
-# in ODMS's table
-BENCHMARKS = {k: PROTOCOL_BENCHMARKS[k] for k in ("odms", "odmd")}
+# the benchmarks with a table of their own: every record of protocol.py
+BENCHMARKS = dict(PROTOCOL_BENCHMARKS)
 
 
 @cache
@@ -45,8 +47,62 @@ def entry_problems(entry: Any) -> list[str]:
     return [f"at {'/'.join(map(str, e.path)) or '(root)'}: {e.message}" for e in errors]
 
 
+def name_key(name: str) -> str:
+    """What makes two entry names the same: Unicode-compatible forms, white space and case aside."""
+    return one_line(unicodedata.normalize("NFKC", name)).casefold()
+
+
+def _all_problem(fam: dict, family: str, b: Benchmark) -> str | None:
+    """Why the All of `fam` disagrees with its sets, or None: it must be their mean, to within the
+    last digit the benchmark prints (the papers' All is the mean of their rounded figures)."""
+    if "all" not in fam:
+        return None
+    if not all(d in fam for d in b.domains):
+        return f"results/{family}/all: an All needs every set of {b.title} ({', '.join(b.domains)})"
+    mean = sum(fam[d]["percent"] for d in b.domains) / len(b.domains)
+    if abs(fam["all"] - mean) > 10.0 ** -b.decimals:
+        return (f"results/{family}/all: {fam['all']} is not the mean of its sets "
+                f"({mean:.{b.decimals + 2}f})")
+    return None
+
+
+def _stores_problem(entry: dict, b: Benchmark) -> str | None:
+    """Why a computed entry's store digests are not those of the split manifests of its sets."""
+    if "scored" not in entry:
+        return "scored: a computed entry records the stores it was scored against"
+    stores = entry["scored"]["stores"]
+    sets = [(d, f) for f, fam in entry["results"].items() for d in fam if d != "all"]
+    expected = {s for s in split_names() for d, f in sets if b.split_of(s, d) == (d, f)}
+    if set(stores) != expected:
+        odd = sorted(set(stores) ^ expected)[0]
+        why = "is not a split of its sets" if odd in stores else "of a scored set is missing"
+        return f"scored/stores/{odd}: {why}"
+    wrong = next((s for s in sorted(stores) if stores[s] != load_manifest(s).digest), None)
+    return None if wrong is None else (f"scored/stores/{wrong}: {stores[wrong]} is not the digest of split "
+                                       f"{wrong} (splits/{wrong}.json)")
+
+
+def _problem(entry: dict) -> str | None:
+    """The first way a schema-valid `entry` disagrees with itself or the split manifests."""
+    b = BENCHMARKS[entry.get("benchmark", "odms")]
+    if one_line(entry["name"]) != entry["name"]:
+        return f"name {entry['name']!r}: white space at its ends, repeated or not a space"
+    if entry["link"] is not None and web_link(entry["link"]) is None:
+        return f"link {entry['link']!r}: not an http(s) address"
+    for family, fam in entry["results"].items():
+        other = next((d for d in fam if d != "all" and d not in b.domains), None)
+        if other:
+            return f"results/{family}/{other}: not a set of {b.title}; an entry spans one benchmark"
+        if problem := _all_problem(fam, family, b):
+            return problem
+    return _stores_problem(entry, b) if entry["figures"] == "computed" else None
+
+
 def check_entry(entry: Any, where: str) -> dict:
-    problems = entry_problems(entry)
+    """`entry` when it is a valid entry: schema-valid, its name normalised, its link an http(s)
+    address, its sets one benchmark's, each All the mean of its sets, and (computed entries) its
+    store digests those of the split manifests; else InputError naming the first problem."""
+    problems = entry_problems(entry) or list(filter(None, [_problem(entry)]))
     if problems:
         more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
         raise InputError(f"{where}: not a valid leaderboard entry: {problems[0]}{more}")
@@ -94,10 +150,12 @@ class LeaderboardEntry:
         return cls(**d)
 
 
-def load_entries(folder: Path | None = None, benchmark: str = "odms") -> list[LeaderboardEntry]:
-    """Every entry of `folder` (default: the shipped leaderboard/) on `benchmark`, checked; names
-    must be unique."""
-    folder = Path(folder) if folder else resource_dir("leaderboard")
+def shipped_folder() -> Path:
+    """The leaderboard/ shipped with odms-data."""
+    return resource_dir("leaderboard")
+
+
+def _folder_entries(folder: Path) -> list[tuple[Path, LeaderboardEntry]]:
     if not folder.is_dir():
         siblings = [p.name for p in folder.parent.iterdir() if p.is_dir()] if folder.parent.is_dir() else []
         close = difflib.get_close_matches(folder.name, siblings, n=1)
@@ -105,15 +163,28 @@ def load_entries(folder: Path | None = None, benchmark: str = "odms") -> list[Le
         raise InputError(f"{folder}: no such folder of leaderboard entries{hint}")
     if not any(folder.glob("*.json")):
         raise InputError(f"{folder}: holds no leaderboard entries (*.json files)")
-    entries: list[LeaderboardEntry] = []
+    return [(path, LeaderboardEntry.from_json(safe_json.load_file(path), str(path)))
+            for path in sorted(folder.glob("*.json"))]
+
+
+def entry_files(*folders: Path | str) -> list[tuple[Path, LeaderboardEntry]]:
+    """(file, entry) for every entry of `folders` (default: the shipped leaderboard/; a folder
+    named twice is read once), checked; names must be unique across them all."""
+    unique = dict.fromkeys(Path(f).resolve() for f in folders or [shipped_folder()])
+    out: list[tuple[Path, LeaderboardEntry]] = []
     seen: dict[str, Path] = {}
-    for path in sorted(folder.glob("*.json")):
-        entry = LeaderboardEntry.from_json(safe_json.load_file(path), str(path))
-        if entry.name in seen:
-            raise InputError(f"{path}: entry name {entry.name!r} is also used by {seen[entry.name]}")
-        seen[entry.name] = path
-        entries.append(entry)
-    return [e for e in entries if e.benchmark == benchmark]
+    for path, entry in (pair for folder in unique for pair in _folder_entries(folder)):
+        key = name_key(entry.name)
+        if key in seen:
+            raise InputError(f"{path}: entry name {entry.name!r} is also used by {seen[key]}")
+        seen[key] = path
+        out.append((path, entry))
+    return out
+
+
+def load_entries(*folders: Path | str, benchmark: str = "odms") -> list[LeaderboardEntry]:
+    """The entries of `folders` (as `entry_files` reads them) on `benchmark`."""
+    return [e for _, e in entry_files(*folders) if e.benchmark == benchmark]
 
 
 def family_all(entry: LeaderboardEntry, family: str) -> float | None:
@@ -141,9 +212,9 @@ def ranked(entries: list[LeaderboardEntry], family: str = "test") -> list[Leader
 
 
 def render_markdown(entries: list[LeaderboardEntry], family: str = "test", metric: str = "percent",
-                    benchmark: str = "odms") -> str:
+                    benchmark: str = "odms") -> Markdown:
     """A markdown table of the entries on `benchmark`, sorted by All (lowest first; entries
-    without All last)."""
+    without All last); every text an entry carries escaped (shown_text.markdown)."""
     b = BENCHMARKS[benchmark]
     domains, units = b.domains, b.units
     entries = [e for e in entries if e.benchmark == benchmark]
@@ -154,9 +225,9 @@ def render_markdown(entries: list[LeaderboardEntry], family: str = "test", metri
         heads = [f"{d.replace('_', ' ').capitalize()} ({units[d]})" for d in domains]
         title = f"Mean absolute error, {b.title} {family} sets (lower is better; sorted by percent All)"
     lines = [
-        f"{title}", "",
-        "| # | Method | n | Training | " + " | ".join(heads) + " | Figures |",
-        "|---|---|---|---|" + "---:|" * len(heads) + "---|",
+        markdown("{title}\n", title=title),
+        markdown("| # | Method | n | Training | {heads} | Figures |", heads=markdown_join(" | ", heads)),
+        markdown_join("|", ["", "---", "---", "---", "---", *["---:"] * len(heads), "---", ""]),
     ]
     for rank, e in enumerate(ranked(entries, family), 1):
         fam = e.results[family]
@@ -169,16 +240,17 @@ def render_markdown(entries: list[LeaderboardEntry], family: str = "test", metri
                 _cell(fam[d]["abs_m"] * scale[units[d]], b.decimals) if "abs_m" in fam.get(d, {}) else "–"
                 for d in domains
             ]
-        name = markdown_link(e.name, e.link)
-        n = str(e.n_obs) if e.n_obs else "–"
-        train = markdown_text(e.training_data or "–")
-        if e.radial_input:
-            train += ", radial"
-        figures = "published" if e.figures == "published" else "computed here"
-        lines.append(f"| {rank} | {name} | {n} | {train} | " + " | ".join(cells) + f" | {figures} |")
+        train = (e.training_data or "–") + (", radial" if e.radial_input else "")
+        lines.append(markdown(
+            "| {rank} | {name} | {n} | {train} | {cells} | {figures} |", rank=rank,
+            name=markdown_link(e.name, e.link), n=e.n_obs or "–", train=train,
+            cells=markdown_join(" | ", cells),
+            figures="published" if e.figures == "published" else "computed here"))
     cites = sorted({e.citation for e in entries if e.citation and e.results.get(family)})
-    lines += ["", "Sources: " + "; ".join(map(markdown_text, cites)) + "."]
-    return "\n".join(lines) + "\n"
+    if cites:
+        lines.append(markdown("\nSources: {cites}.", cites=markdown_join("; ", cites)))
+    lines.append(Markdown(""))
+    return markdown_join("\n", lines)
 
 
 def entry_from_report(
@@ -189,8 +261,14 @@ def entry_from_report(
     ODMD's), schema-checked."""
     if report.partial:
         raise InputError("a leaderboard entry needs every example scored", fix="complete-score")
-    benchmark = next((k for k, b in BENCHMARKS.items()
-                      if any(b.split_of(s.split, s.domain) for s in report.scores)), "odms")
+    benchmarks = {k: [s.split for s in report.scores if b.split_of(s.split, s.domain)]
+                  for k, b in BENCHMARKS.items()}
+    both = {k: splits for k, splits in benchmarks.items() if splits}
+    if len(both) > 1:
+        listed = "; ".join(f"{BENCHMARKS[k].title}: {', '.join(splits)}" for k, splits in both.items())
+        raise InputError(f"{report.predictions}: scores the sets of {len(both)} benchmarks ({listed}); a "
+                         "leaderboard entry spans one benchmark, so score each on its own")
+    benchmark = next(iter(both), "odms")
     results: dict[str, dict] = {}
     for s in report.scores:
         off = BENCHMARKS[benchmark].split_of(s.split, s.domain)
@@ -213,7 +291,7 @@ def entry_from_report(
         if a.benchmark == benchmark:
             results[a.family]["all"] = round(a.mean_percent_error, 4)
     return LeaderboardEntry(
-        name=name, method=method or name, n_obs=n_obs, training_data=None,
+        name=one_line(name), method=method or one_line(name), n_obs=n_obs, training_data=None,
         radial_input=None, figures="computed", citation=citation, link=link,
         source=f"scored by odms-data {__version__} from {Path(report.predictions).name}",
         results=results,
@@ -221,7 +299,8 @@ def entry_from_report(
             "by": f"odms-data {__version__}",
             "date": datetime.date.today().isoformat(),
             "predictions_sha256": predictions_sha256 or hashlib.sha256(b"").hexdigest(),
-            "stores": {s: report.digests[s] for s in sorted(report.digests)},
+            "stores": {s.split: report.digests[s.split] for s in sorted(report.scores, key=lambda s: s.split)
+                       if BENCHMARKS[benchmark].split_of(s.split, s.domain)},
         },
         benchmark=benchmark,
     )

@@ -32,7 +32,15 @@ from ..store.digest import READ_BYTES, check_recorded_digest
 from ..store.format import ARRAYS
 from ..store.masks import packed_width
 from ..store.reader import Store, open_store
-from .hub_metadata import SplitExport, columns_of, croissant, dataset_card, hub_split, licence_of
+from .hub_metadata import (
+    SplitExport,
+    check_licence,
+    columns_of,
+    croissant,
+    dataset_card,
+    hub_split,
+    licence_of,
+)
 
 ROW_GROUP = 100  # examples per Parquet row group: small groups let the Hub's viewer page quickly
 Progress = Callable[[str, int, int], None]  # (output, examples written, examples in all the stores)
@@ -172,7 +180,7 @@ def export_hub(
         if clash:
             raise InputError(f"splits {' and '.join(s for s in splits if hub_split(s) == clash)} both become "
                              f"the Hub split {clash}; export them separately")
-        licence = licence or licence_of([s.attrs for s in opened])
+        licence = check_licence(licence) if licence else licence_of([s.attrs for s in opened])
         for path, s in zip(stores, opened, strict=True):  # the card publishes each store's digest
             check_recorded_digest(s, path)
         with atomic_folder(target, EXPORT, overwrite=overwrite) as partial:

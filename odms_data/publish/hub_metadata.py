@@ -18,6 +18,7 @@ from functools import cache
 from .._version import __version__
 from ..errors import InputError
 from ..protocol import official_name
+from ..shown_text import Markdown, markdown, markdown_join, yaml_header
 from ..store.format import StoreAttrs, arrays_of, arrays_per
 
 
@@ -28,57 +29,58 @@ class KindText:
     benchmark: str  # its name, as the papers spell it
     venue: str  # the paper's venue and year
     paper: str  # the paper's title
-    bibtex: str
+    bibtex: Markdown
     url: str  # the authors' repository
     image: str  # what the columns `height` and `width` measure
     tags: tuple[str, ...]  # the card's Hub tags
     keywords: tuple[str, ...]  # Croissant's
-    intro: str  # the card's first words: what an example is
+    intro: Markdown  # the card's first words: what an example is
     summary: str  # the same in a line, for Croissant
-    reading: str  # Python that turns a row `ex` into arrays
+    reading: Markdown  # Python that turns a row `ex` into arrays
 
 
 KIND_TEXT = {
     "masks": KindText(
         benchmark="ODMS", venue="ECCV 2020",
         paper="Learning Object Depth from Camera Motion and Video Object Segmentation",
-        bibtex="""@inproceedings{GrCo20,
+        bibtex=Markdown("""@inproceedings{GrCo20,
   author = {Griffin, Brent A. and Corso, Jason J.},
   title = {Learning Object Depth from Camera Motion and Video Object Segmentation},
   booktitle = {European Conference on Computer Vision (ECCV)},
   year = {2020}
-}""",
+}"""),
         url="https://github.com/griffbr/ODMS", image="mask",
         tags=("odms", "object-depth", "segmentation-masks", "camera-motion"),
         keywords=("ODMS", "object depth", "segmentation masks", "camera motion"),
-        intro="""\
+        intro=Markdown("""\
 ODMS (Object Depth via Motion and Segmentation; Griffin & Corso, ECCV 2020) examples: the binary
 segmentation masks of one object seen from a camera moving along its optical axis, the camera
-positions `z` and the label `d1`, the object's depth at the closest observation.""",
+positions `z` and the label `d1`, the object's depth at the closest observation."""),
         summary="binary masks of an object seen from a camera moving along its optical axis, camera "
                 "positions and the depth label d1",
-        reading="""\
+        reading=Markdown("""\
 masks = np.stack([np.unpackbits(np.frombuffer(m, np.uint8).reshape(ex["height"], -1), axis=-1,
-                                count=ex["width"]).astype(bool) for m in ex["masks"]])  # (n, h, w)"""),
+                                count=ex["width"]).astype(bool) for m in ex["masks"]])  # (n, h, w)""")),
     "boxes": KindText(
         benchmark="ODMD", venue="CVPR 2021", paper="Depth from Camera Motion and Object Detection",
-        bibtex="""@inproceedings{GrCoCVPR21,
+        bibtex=Markdown("""@inproceedings{GrCoCVPR21,
   author = {Griffin, Brent A. and Corso, Jason J.},
   booktitle = {The IEEE Conference on Computer Vision and Pattern Recognition (CVPR)},
   title = {Depth from Camera Motion and Object Detection},
   year = {2021}
-}""",
+}"""),
         url="https://github.com/griffbr/ODMD", image="image",
         tags=("odmd", "object-depth", "object-detection", "bounding-boxes", "camera-motion"),
         keywords=("ODMD", "object depth", "object detection", "bounding boxes", "camera motion"),
-        intro="""\
+        intro=Markdown("""\
 ODMD (Object Depth via Motion and Detection; Griffin & Corso, CVPR 2021) examples: the detection
 boxes of one object seen from a camera moving in x, y and z, the camera's movement `move` from
-each observation to the last, and the label `d1`, the object's depth at the last observation.""",
+each observation to the last, and the label `d1`, the object's depth at the last observation."""),
         summary="detection boxes of an object seen from a camera moving in x, y and z, the camera "
                 "movements and the depth label d1",
-        reading="""boxes = np.array(ex["box"])  # (n, 4) [x_c, y_c, w, h]; x_c, w / width and y_c, h / height
-move = np.array(ex["move"])  # (n, 3) m, from each observation to the last"""),
+        reading=Markdown("""\
+boxes = np.array(ex["box"])  # (n, 4) [x_c, y_c, w, h]; x_c, w / width and y_c, h / height
+move = np.array(ex["move"])  # (n, 3) m, from each observation to the last""")),
 }
 RELEASE_LICENCE = {  # the licence of the authors' released data (griffbr/ODMS)
     "license": "other", "license_name": "odms-research-only",
@@ -135,8 +137,27 @@ def licence_of(stores: Sequence[StoreAttrs]) -> str:
     raise InputError(f"the licence of split {unknown} is not known to odms-data", fix="licence")
 
 
+LICENCE_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9.+-]{0,63}")  # an SPDX identifier, or the Hub's (cc-by-4.0)
+LICENCE_LINE = 200  # characters at most of a licence given as a line of text
+
+
+def check_licence(licence: str) -> str:
+    """`licence` when it is an SPDX (or the Hub's) identifier or a single line of text; else InputError."""
+    if LICENCE_ID.fullmatch(licence) or (
+            licence.isprintable() and licence.strip() == licence and 0 < len(licence) <= LICENCE_LINE):
+        return licence
+    raise InputError(f"licence {licence[:60]!r}{'...' if len(licence) > 60 else ''}: a licence is an SPDX "
+                     f"identifier (e.g. cc-by-4.0) or a single line of at most {LICENCE_LINE} printable "
+                     "characters", option="licence")
+
+
 def _licence_fields(licence: str) -> dict[str, str]:
-    return dict(RELEASE_LICENCE) if licence == "other" else {"license": licence}
+    if licence == "other":
+        return dict(RELEASE_LICENCE)
+    if LICENCE_ID.fullmatch(licence):
+        return {"license": licence}
+    slug = re.sub(r"[^a-z0-9]+", "-", licence.lower()).strip("-")
+    return {"license": "other", "license_name": slug or "other"}
 
 
 def _size_category(n: int) -> str:
@@ -147,62 +168,11 @@ def _size_category(n: int) -> str:
     return "10M<n<100M"
 
 
-def _yaml(value: object, indent: int = 0) -> str:
-    """A small YAML writer for the card header: mappings, lists and JSON-quoted scalars."""
-    pad = " " * indent
-    if isinstance(value, Mapping):
-        out = []
-        for k, v in value.items():
-            if isinstance(v, Mapping | list):
-                out.append(f"{pad}{k}:\n{_yaml(v, indent + 2)}")
-            else:
-                out.append(f"{pad}{k}: {json.dumps(v)}")
-        return "\n".join(out)
-    if isinstance(value, list):
-        out = []
-        for v in value:
-            if isinstance(v, Mapping):
-                body = _yaml(v, indent + 2)
-                out.append(f"{pad}- {body[indent + 2:]}")
-            else:
-                out.append(f"{pad}- {json.dumps(v)}")
-        return "\n".join(out)
-    return f"{pad}{json.dumps(value)}"
-
-
-def dataset_card(
-    title: str, stores: Sequence[StoreAttrs], exported: Sequence[SplitExport], licence: str
-) -> str:
-    """README.md for the Hub: the YAML header, then what the data is, how to read it, where it came from."""
-    total, text = sum(e.examples for e in exported), KIND_TEXT[stores[0].kind]
-    header = {
-        **_licence_fields(licence),
-        "pretty_name": title,
-        "task_categories": ["depth-estimation"],
-        "tags": list(text.tags),
-        "size_categories": [_size_category(total)],
-        "configs": [{
-            "config_name": "default",
-            "data_files": [{"split": hub_split(e.split), "path": f"data/{e.split}/*.parquet"}
-                           for e in exported],
-        }],
-    }
-    rows = "\n".join(
-        f"| `{hub_split(e.split)}` | {a.domain} | {e.examples:,} | {a.image_size[0]}x{a.image_size[1]} | "
-        f"`{a.digest}` |" for a, e in zip(stores, exported, strict=True))
-    fields = "\n".join(f"| `{k}` | {'list of ' if rep else ''}{t.split(':')[1]} | {d} |"
-                       for k, (t, rep, d) in columns_of(stores[0].kind).items())
-    licence_text = ("non-commercial research use only, the licence of the authors' released data "
-                    "(github.com/griffbr/ODMS)" if licence == "other" else licence)
-    first = hub_split(exported[0].split)
-    return f"""---
-{_yaml(header)}
----
-
+CARD = """{header}
 # {title}
 
-{text.intro} Exported by
-odms-data {__version__} from its stores; licence: {licence_text}.
+{intro} Exported by
+odms-data {version} from its stores; licence: {licence}.
 
 | split | domain | examples | image size (h x w) | content digest of the store |
 | --- | --- | ---: | --- | --- |
@@ -220,7 +190,7 @@ odms-data {__version__} from its stores; licence: {licence_text}.
 import datasets, numpy as np
 ds = datasets.load_dataset("path/or/hub-name", split="{first}")
 ex = ds[0]
-{text.reading}
+{reading}
 ```
 
 `croissant.json` describes the same files in MLCommons Croissant 1.0. odms-data reads the stores
@@ -229,9 +199,41 @@ these came from with `odms_data.open_store`; the digests above identify them.
 ## Citation
 
 ```bibtex
-{text.bibtex}
+{bibtex}
 ```
 """
+
+
+def dataset_card(
+    title: str, stores: Sequence[StoreAttrs], exported: Sequence[SplitExport], licence: str
+) -> Markdown:
+    """README.md for the Hub: the YAML header, then what the data is, how to read it, where it
+    came from; the title, licence and every store's text escaped (shown_text)."""
+    total, text = sum(e.examples for e in exported), KIND_TEXT[stores[0].kind]
+    header = {
+        **_licence_fields(check_licence(licence)),
+        "pretty_name": title,
+        "task_categories": ["depth-estimation"],
+        "tags": list(text.tags),
+        "size_categories": [_size_category(total)],
+        "configs": [{
+            "config_name": "default",
+            "data_files": [{"split": hub_split(e.split), "path": f"data/{e.split}/*.parquet"}
+                           for e in exported],
+        }],
+    }
+    rows = markdown_join("\n", (
+        markdown("| `{split}` | {domain} | {n:,} | {size} | `{digest}` |", split=hub_split(e.split),
+                 domain=a.domain, n=e.examples, size=f"{a.image_size[0]}x{a.image_size[1]}", digest=a.digest)
+        for a, e in zip(stores, exported, strict=True)))
+    fields = markdown_join("\n", (markdown("| `{k}` | {t} | {d} |", k=k, d=d,
+                                            t=("list of " if rep else "") + t.split(":")[1])
+                                   for k, (t, rep, d) in columns_of(stores[0].kind).items()))
+    licence_text = ("non-commercial research use only, the licence of the authors' released data "
+                    "(github.com/griffbr/ODMS)" if licence == "other" else licence)
+    return markdown(CARD, header=yaml_header(header), title=title, intro=text.intro, version=__version__,
+                    licence=licence_text, rows=rows, fields=fields,
+                    first=hub_split(exported[0].split), reading=text.reading, bibtex=text.bibtex)
 
 
 CONTEXT = {  # the JSON-LD context of Croissant 1.0

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 
@@ -215,3 +216,27 @@ def test_odmds_robot_set_round_trips_with_its_unknown_depths(odmd_data, tmp_path
         assert np.isnan(s.depth).any()  # the robot sets' inner frames
     _assert_box_round_trip(datasets.load_dataset(str(out), split="odmd_robot_val",
                                                  cache_dir=str(tmp_path / "cache")), store)
+
+
+def test_the_card_shows_a_hostile_title_and_licence_as_text(tmp_path):
+    """`export --name` and `--license` reach the card only escaped; a licence is an SPDX
+    identifier or one line, and anything else is refused before the export starts."""
+    store = tmp_path / "s.zarr"
+    generate(str(store), 3, PARAMS, seed=1)
+    hostile = '<img src=x onerror=alert(1)> [home](javascript:alert(1)) "\n---\nlicense: x'
+    run = CliRunner().invoke
+    for licence in ("mit\n---\n<script>alert(1)</script>", "x" * 201, " mit", "a\x1b[31m"):
+        r = run(main, ["export", str(store), "-o", str(tmp_path / "no"), "--license", licence])
+        assert r.exit_code == 2 and len(r.stderr.splitlines()) == 1, r.output
+        assert "a licence is an SPDX identifier" in r.stderr and not (tmp_path / "no").exists()
+    r = run(main, ["export", str(store), "-o", str(tmp_path / "hub"), "--name", hostile,
+                   "--license", "Research only <b>please</b>"])
+    assert r.exit_code == 0, r.output
+    card = (tmp_path / "hub" / "README.md").read_text()
+    header = yaml.safe_load(card.split("---\n")[1])
+    assert header["pretty_name"] == hostile  # the whole title, quoted, in the header it cannot end
+    assert (header["license"], header["license_name"]) == ("other", "research-only-b-please-b")
+    body = card.split("---\n", 2)[2]  # the Markdown the Hub renders
+    assert "<img" not in card and "<b>" not in card and not re.search(r"(?<!\\)\]\(javascript:", body)
+    assert "# &lt;img src=x onerror=alert(1)&gt; \\[home\\](javascript:alert(1)) \" --- license: x\n" in card
+    assert "licence: Research only &lt;b&gt;please&lt;/b&gt;." in card

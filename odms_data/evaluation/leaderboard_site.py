@@ -1,0 +1,262 @@
+"""The leaderboard as a static site (`odms-data leaderboard --html DIR`): one page per benchmark,
+one per entry, self-contained (no external script, font or style; inline CSS and a small inline
+script that sorts the columns), so it works from file:// and from any static host.
+
+Every page is rendered by shown_text.html (Jinja2, every value escaped, links http(s) only), and
+carries a Content-Security-Policy that lets only its own inline script and style run: were a
+value ever to slip through unescaped, a script it carried would not run.
+
+A set's cell shows the entry's mean percent error; the scorer's bootstrap intervals join it
+(`_set_cell`) once entries record them. Ties are neighbours whose All is equal at the precision
+the benchmark prints.
+"""
+
+from __future__ import annotations
+
+import base64
+import hashlib
+import re
+from pathlib import Path
+
+from .._version import __version__
+from ..outputs import Kind, atomic_folder
+from ..protocol import SPLIT_FAMILIES
+from ..shown_text import html
+from .leaderboard import BENCHMARKS, LeaderboardEntry, family_all, name_key, ranked
+
+GENERATOR = f"odms-data {__version__}"
+
+STYLE = """
+body { font: 15px/1.45 system-ui, sans-serif; margin: 1.5em auto; max-width: 72em; padding: 0 1em; }
+nav a { margin-right: 1em; }
+table { border-collapse: collapse; margin: 0.5em 0 1.5em; }
+th, td { border-bottom: 1px solid #ddd; padding: 0.25em 0.6em; text-align: left; vertical-align: top; }
+table.board td, table.board th { white-space: nowrap; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; }
+th button { font: inherit; font-weight: bold; border: 0; background: none; cursor: pointer; padding: 0; }
+th[aria-sort=ascending] button::after { content: " \\25B2"; }
+th[aria-sort=descending] button::after { content: " \\25BC"; }
+.computed { color: #05603a; font-weight: bold; }
+.tie { color: #b54708; }
+code { font-size: 12px; }
+details summary { cursor: pointer; }
+"""
+
+SCRIPT = """
+document.querySelectorAll("table.board").forEach(function (table) {
+  var heads = table.tHead.rows[0].cells;
+  Array.prototype.forEach.call(heads, function (th, col) {
+    var button = th.querySelector("button");
+    if (!button) { return; }
+    button.addEventListener("click", function () {
+      var ascending = th.getAttribute("aria-sort") !== "ascending";
+      Array.prototype.forEach.call(heads, function (h) { h.removeAttribute("aria-sort"); });
+      th.setAttribute("aria-sort", ascending ? "ascending" : "descending");
+      var body = table.tBodies[0];
+      var rows = Array.prototype.slice.call(body.rows);
+      rows.sort(function (a, b) {
+        var x = a.cells[col].getAttribute("data-sort"), y = b.cells[col].getAttribute("data-sort");
+        if (x === "" || y === "") { return (x === "") - (y === ""); }  // no figure: last either way
+        var nx = parseFloat(x), ny = parseFloat(y);
+        var order = isNaN(nx) || isNaN(ny) ? x.localeCompare(y) : nx - ny;
+        return ascending ? order : -order;
+      });
+      rows.forEach(function (r) { body.appendChild(r); });
+    });
+  });
+});
+"""
+
+
+def _hash(text: str) -> str:
+    return "sha256-" + base64.b64encode(hashlib.sha256(text.encode()).digest()).decode()
+
+
+POLICY = (f"default-src 'none'; style-src '{_hash(STYLE)}'; script-src '{_hash(SCRIPT)}'; "
+          "img-src 'self' data:; base-uri 'none'; form-action 'none'")
+
+HEAD = """<!DOCTYPE html>
+<html lang="en">
+<head>
+<meta charset="utf-8">
+<meta http-equiv="Content-Security-Policy" content="{{ policy }}">
+<meta name="generator" content="{{ generator }}">
+<meta name="viewport" content="width=device-width, initial-scale=1">
+<title>{{ title }}</title>
+<style>{{ style|safe }}</style>
+</head>
+<body>
+<nav>{% for key, b in benchmarks %}<a href="{{ up }}{{ key }}.html">{{ b.title }}</a>{% endfor %}</nav>
+"""
+
+BENCHMARK_PAGE = HEAD + """<h1>{{ title }}</h1>
+<p>Mean percent error, lower is better; All is the unweighted mean of the sets. Click a column
+heading to sort. <span class="computed">computed here</span>: scored by odms-data from a
+predictions file against the stores whose digests are listed; published: as printed in the cited
+work. <span class="tie">=</span> marks a tie: the same All at the precision printed.</p>
+{% for family, rows in tables %}
+<h2>{{ family }} sets</h2>
+{% if rows %}
+<table class="board" id="board-{{ family }}">
+<thead><tr>{% for head in heads %}<th><button type="button">{{ head }}</button></th>{% endfor %}</tr></thead>
+<tbody>
+{% for r in rows %}
+<tr>
+<td class="num" data-sort="{{ r.rank }}">
+{%- if r.tie %}<span class="tie" title="tied">=</span>{% endif %}{{ r.rank }}</td>
+<td data-sort="{{ r.name }}"><a href="entries/{{ r.page }}">{{ r.name }}</a></td>
+<td class="num" data-sort="{{ r.n or "" }}">{{ r.n or "–" }}</td>
+<td data-sort="{{ r.training }}">{{ r.training }}</td>
+{% for c in r.cells %}<td class="num" data-sort="{{ c.sort }}">{{ c.text }}</td>{% endfor %}
+<td data-sort="{{ r.figures }}">
+{%- if r.computed %}<span class="computed">computed here</span>{% else %}published{% endif %}</td>
+<td data-sort="{{ r.stores|length }}">{% if r.stores %}
+<details><summary>{{ r.stores|length }} stores</summary>
+{% for split, digest in r.stores %}<div><code>{{ split }} {{ digest }}</code></div>{% endfor %}
+</details>{% else %}–{% endif %}</td>
+</tr>
+{% endfor %}
+</tbody>
+</table>
+{% else %}
+<p>No entry has figures on these sets yet.</p>
+{% endif %}
+{% endfor %}
+{% if cites %}<p>Sources: {{ cites|join("; ") }}.</p>{% endif %}
+<script>{{ script|safe }}</script>
+</body>
+</html>
+"""
+
+ENTRY_PAGE = HEAD + """<h1>{{ e.name }}</h1>
+<p>{{ b.title }} entry; figures
+{%- if e.figures == "computed" %} <span class="computed">computed here</span>
+{%- else %} published{% endif %}.</p>
+<table>
+<tr><th>Method</th><td>{{ e.method }}</td></tr>
+<tr><th>Citation</th><td>{{ e.citation or "–" }}</td></tr>
+<tr><th>Link</th><td>{% if e.link|link %}
+<a href="{{ e.link|link }}" rel="noopener noreferrer">{{ e.link|link }}</a>{% else %}–{% endif %}</td></tr>
+<tr><th>Observations</th><td>{{ e.n_obs or "–" }}</td></tr>
+<tr><th>Training data</th>
+<td>{{ e.training_data or "–" }}{% if e.radial_input %}, radial input{% endif %}</td></tr>
+{% if e.source %}<tr><th>Source</th><td>{{ e.source }}</td></tr>{% endif %}
+{% if e.note %}<tr><th>Note</th><td>{{ e.note }}</td></tr>{% endif %}
+{% if e.scored %}<tr><th>Scored</th><td>by {{ e.scored.by }} on {{ e.scored.date }}; predictions sha256
+<code>{{ e.scored.predictions_sha256 }}</code></td></tr>{% endif %}
+</table>
+{% for family, sets in results %}
+<h2>{{ family }} sets</h2>
+<table>
+<thead><tr><th>Set</th><th>Mean %</th><th>Median %</th><th>Mean abs. error (m)</th><th>n</th>
+<th>Store digest</th></tr></thead>
+<tbody>
+{% for s in sets %}
+<tr><td>{{ s.set }}</td>
+{% for x in (s.percent, s.median, s.abs, s.n) %}<td class="num">{{ x }}</td>{% endfor %}
+<td><code>{{ s.digest }}</code></td></tr>
+{% endfor %}
+</tbody>
+</table>
+{% endfor %}
+<script>{{ script|safe }}</script>
+</body>
+</html>
+"""
+
+
+def _not_a_site(path: Path) -> str | None:
+    """What makes `path` something else than an earlier site or an empty folder (None if not)."""
+    if not path.is_dir():
+        return "is a file, not an earlier leaderboard site"
+    if not any(path.iterdir()):
+        return None
+    index = path / "index.html"
+    if index.is_file() and not index.is_symlink():
+        with open(index, "rb") as f:
+            if b'<meta name="generator" content="odms-data' in f.read(2048):
+                return None
+    return "is a folder odms-data did not write as a leaderboard site"
+
+
+SITE = Kind("leaderboard site", _not_a_site)
+
+
+def entry_page(entry: LeaderboardEntry) -> str:
+    """The file name of an entry's page: its name made safe for a path, and a hash of it."""
+    key = name_key(entry.name)
+    slug = re.sub(r"[^a-z0-9]+", "-", key).strip("-")[:40] or "entry"
+    return f"{slug}-{hashlib.sha256(key.encode()).hexdigest()[:8]}.html"
+
+
+def _number(x: float | None, decimals: int) -> dict[str, str]:
+    return {"sort": "" if x is None else repr(x), "text": "–" if x is None else f"{x:.{decimals}f}"}
+
+
+def _set_cell(figures: dict | None, decimals: int) -> dict[str, str]:
+    """A set's cell: its mean percent error (where the scorer's intervals will join it)."""
+    return _number(None if figures is None else figures["percent"], decimals)
+
+
+def _rows(entries: list[LeaderboardEntry], family: str, benchmark: str) -> list[dict]:
+    b = BENCHMARKS[benchmark]
+    rows: list[dict] = []
+    for e in ranked(entries, family):
+        fam, total = e.results[family], family_all(e, family)
+        shown = None if total is None else round(total, b.decimals)
+        tie = bool(rows) and shown is not None and rows[-1]["all"] == shown
+        rank = rows[-1]["rank"] if tie else len(rows) + 1
+        if tie:
+            rows[-1]["tie"] = True
+        rows.append({
+            "rank": rank, "tie": tie, "all": shown, "name": e.name, "page": entry_page(e), "n": e.n_obs,
+            "training": (e.training_data or "–") + (", radial" if e.radial_input else ""),
+            "cells": [_set_cell(fam.get(d), b.decimals) for d in b.domains] + [_number(total, b.decimals)],
+            "figures": e.figures, "computed": e.figures == "computed",
+            "stores": sorted((e.scored or {}).get("stores", {}).items()),
+        })
+    return rows
+
+
+def _entry_sets(entry: LeaderboardEntry) -> list[tuple[str, list[dict]]]:
+    b = BENCHMARKS[entry.benchmark]
+    stores = (entry.scored or {}).get("stores", {})
+    digest = {off: stores[s] for s in stores for d in b.domains if (off := b.split_of(s, d))}
+    out = []
+    for family in SPLIT_FAMILIES:
+        fam = entry.results.get(family)
+        if not fam:
+            continue
+        sets = [{"set": d.replace("_", " "), "percent": fam[d]["percent"],
+                 "median": fam[d].get("median_percent", "–"), "abs": fam[d].get("abs_m", "–"),
+                 "n": fam[d].get("n", "–"), "digest": digest.get((d, family), "–")}
+                for d in b.domains if d in fam]
+        if "all" in fam:
+            none = dict.fromkeys(("median", "abs", "n", "digest"), "–")
+            sets.append({"set": "All", "percent": fam["all"], **none})
+        out.append((family, sets))
+    return out
+
+
+def write_site(entries: list[LeaderboardEntry], out_dir: str | Path, *, overwrite: bool = False) -> list[str]:
+    """Write the site for `entries` (of every benchmark) to `out_dir`; returns its pages, relative."""
+    common = {"policy": POLICY, "generator": GENERATOR, "style": STYLE, "script": SCRIPT,
+              "benchmarks": list(BENCHMARKS.items())}
+    pages: dict[str, str] = {}
+    for key, b in BENCHMARKS.items():
+        mine = [e for e in entries if e.benchmark == key]
+        sets = [d.replace("_", " ").capitalize() for d in b.domains]
+        heads = ["#", "Method", "n", "Training", *sets, "All", "Figures", "Stores"]
+        tables = [(f, _rows(mine, f, key)) for f in reversed(SPLIT_FAMILIES)]  # test first
+        cites = sorted({e.citation for e in mine if e.citation})
+        pages[f"{key}.html"] = html(BENCHMARK_PAGE, **common, up="", title=f"{b.title} leaderboard",
+                                    heads=heads, tables=tables, cites=cites)
+        for e in mine:
+            pages[f"entries/{entry_page(e)}"] = html(ENTRY_PAGE, **common, up="../", title=e.name, e=e, b=b,
+                                                     results=_entry_sets(e))
+    pages["index.html"] = pages[f"{next(iter(BENCHMARKS))}.html"]
+    with atomic_folder(out_dir, SITE, overwrite=overwrite) as partial:
+        (partial / "entries").mkdir()
+        for name, text in pages.items():
+            (partial / name).write_text(text, encoding="utf-8")
+    return sorted(pages)
