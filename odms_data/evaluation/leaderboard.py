@@ -72,7 +72,7 @@ def _stores_problem(entry: dict, b: Benchmark) -> str | None:
         return "scored: a computed entry records the stores it was scored against"
     stores = entry["scored"]["stores"]
     sets = [(d, f) for f, fam in entry["results"].items() for d in fam if d != "all"]
-    expected = {s for s in split_names() for d, f in sets if b.split_of(s, d) == (d, f)}
+    expected = {b.split(d, f) for d, f in sets} & set(split_names())
     if set(stores) != expected:
         odd = sorted(set(stores) ^ expected)[0]
         why = "is not a split of its sets" if odd in stores else "of a scored set is missing"

@@ -221,7 +221,8 @@ def _rows(entries: list[LeaderboardEntry], family: str, benchmark: str) -> list[
 def _entry_sets(entry: LeaderboardEntry) -> list[tuple[str, list[dict]]]:
     b = BENCHMARKS[entry.benchmark]
     stores = (entry.scored or {}).get("stores", {})
-    digest = {off: stores[s] for s in stores for d in b.domains if (off := b.split_of(s, d))}
+    digest = {(d, f): stores[b.split(d, f)] for f in SPLIT_FAMILIES for d in b.domains
+              if b.split(d, f) in stores}
     out = []
     for family in SPLIT_FAMILIES:
         fam = entry.results.get(family)

@@ -88,7 +88,7 @@ def test_an_entry_spans_one_benchmark(tmp_path):
 
 def test_score_entry_over_odms_and_odmd_sets_is_refused():
     scores = [SplitScore("robot-test", "robot", 10, 10, 5.0, 5.0, 0.1),
-              SplitScore("odmd-normal-test", "normal", 10, 10, 1.0, 1.0, 0.1)]
+              SplitScore("odmd-normal-test", "odmd", 10, 10, 1.0, 1.0, 0.1)]
     digests = {"robot-test": "sha256:" + "1" * 64, "odmd-normal-test": "sha256:" + "2" * 64}
     report = ScoreReport("p.csv", 20, scores, {}, False, digests=digests)
     with pytest.raises(InputError, match=r"p.csv: scores the sets of 2 benchmarks \(ODMS: robot-test; ODMD: "
