@@ -208,7 +208,7 @@ def recording(mask_dir, positions, poses, pose, time_tolerance, max_rotation, ou
         return
     echo_text(f"wrote {result.path}: {counts['examples']} example(s) ({counts['labelled']} labelled), "
                f"{counts['frames']} frames, digest {result.attrs.digest}")
-    _report_skipped(result, "row(s), file(s) or turning example(s)")
+    _report_skipped(result, "row(s) or file(s)" if poses is None else "file(s) or turning example(s)")
 
 
 @import_group.command("synthia")

@@ -108,7 +108,7 @@ def test_windows_turning_past_max_rotation_are_refused_and_listed(tmp_path):
                                   "--workers", "1"])
     assert r.exit_code == 0, r.output
     assert f"{len(turned) - len(refused)} example(s)" in r.output
-    assert f"skipped {len(refused)} row(s), file(s) or turning example(s)" in r.output
+    assert f"skipped {len(refused)} file(s) or turning example(s)" in r.output
     said = [line for line in r.output.splitlines() if "degrees, more than" in line]
     listed = sorted(line.split(":")[0].strip() for line in said)
     assert listed == refused
