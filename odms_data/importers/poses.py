@@ -21,6 +21,7 @@ Pose = tuple[np.ndarray, np.ndarray]  # camera centre, unit optical axis; world 
 MAX_FILE_BYTES = 256 << 20  # a pose file larger than this is refused before it is read
 MAX_POSES = 1_000_000  # rows
 MAX_LINE_CHARS = 4096  # a row of 16 numbers in full float64 precision takes under 400
+MAX_LINES = 2 * MAX_POSES  # poses, blank lines and comments
 FIELDS = {16: "4x4", 12: "kitti", 8: "tum"}  # numbers on a row -> format
 ROTATION_TOLERANCE = 1e-4  # largest |R^T R - I| entry of a rotation (rows written with 5 decimals pass)
 QUATERNION_TOLERANCE = 1e-3  # largest | |q| - 1 | of a TUM quaternion (TUM's files have 4 decimals)
@@ -118,22 +119,27 @@ def _numbers(fields: list[str], where: str) -> np.ndarray:
 
 
 def _text_lines(path: Path) -> list[tuple[int, str]]:
-    """The file's data lines (not blank, not # comments) with their line numbers, bounded."""
-    data = path.read_bytes()
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError as e:
-        raise InputError(f"{path}: not a text file (byte {e.start} is not UTF-8)") from None
+    """The file's data lines (not blank, not # comments) with their line numbers, read line by line
+    with each line's length and the count of lines bounded."""
     rows = []
-    for i, line in enumerate(text.splitlines(), 1):
-        if len(line) > MAX_LINE_CHARS:
-            raise InputError(f"{path} line {i}: {len(line)} characters, more than a pose row can have "
-                             f"({MAX_LINE_CHARS})")
-        line = line.strip()
-        if line and not line.startswith("#"):
-            rows.append((i, line))
-            if len(rows) > MAX_POSES:
-                raise InputError(f"{path}: more than {MAX_POSES} poses")
+    try:
+        with path.open(encoding="utf-8") as f:
+            for i in range(1, MAX_LINES + 2):
+                line = f.readline(MAX_LINE_CHARS + 1)
+                if not line:
+                    break
+                if i > MAX_LINES:
+                    raise InputError(f"{path}: more than {MAX_LINES} lines")
+                if len(line) > MAX_LINE_CHARS:
+                    raise InputError(f"{path} line {i}: longer than a pose row can be ({MAX_LINE_CHARS} "
+                                     "characters)")
+                line = line.strip()
+                if line and not line.startswith("#"):
+                    rows.append((i, line))
+    except UnicodeDecodeError as e:
+        raise InputError(f"{path}: not a text file (a byte at {e.start} of a line is not UTF-8)") from None
+    if len(rows) > MAX_POSES:
+        raise InputError(f"{path}: more than {MAX_POSES} poses")
     if not rows:
         raise InputError(f"{path}: holds no poses")
     return rows
