@@ -286,8 +286,9 @@ def axis_positions(c2w: np.ndarray) -> np.ndarray:
 
 
 def window_rotations(c2w: np.ndarray, frame_index: np.ndarray) -> np.ndarray:
-    """(examples,) the largest angle, in degrees, between the orientations of any two frames of
-    each example (`frame_index` rows index the matrices)."""
-    R = c2w[:, :3, :3][frame_index]  # (E, k, 3, 3)
-    trace = np.einsum("eiab,ejab->eij", R, R)  # trace(Ri^T Rj)
-    return np.degrees(np.arccos(np.clip((trace - 1) / 2, -1, 1))).max(axis=(1, 2))
+    """(examples,) the largest angle, in degrees, between the orientation of each example's first
+    frame and that of any of its frames (`frame_index` rows index the matrices)."""
+    R = c2w[:, :3, :3]
+    first = R[frame_index[:, 0]]  # (E, 3, 3)
+    trace = np.einsum("eab,ekab->ek", first, R[frame_index])  # trace(R_first^T R_k)
+    return np.degrees(np.arccos(np.clip((trace - 1) / 2, -1, 1))).max(axis=1)
