@@ -1,5 +1,6 @@
 """Importing a recording whose camera is given by poses (4x4 matrices, .npy, KITTI, TUM) instead of
-positions.csv: the same examples as the CSV would give, and windows that turn too much refused."""
+positions.csv: the same examples as the CSV would give (on generated recordings and on official
+robot-test ones), and windows that turn too much refused and listed."""
 
 from __future__ import annotations
 
@@ -153,3 +154,46 @@ def test_each_bad_row_is_named(tmp_path, case):
     with pytest.raises(InputError) as e:
         read_poses(tmp_path / name)
     assert says in str(e.value) and "\n" not in str(e.value)
+
+
+def _robot_recordings(archive: Path, root: Path, count: int) -> list[Path]:
+    """The first `count` robot-test folders of the official archive, extracted under root."""
+    import tarfile
+
+    prefix = "data/test/robot/"
+    with tarfile.open(archive) as tar:
+        members = [m for m in tar.getmembers() if m.name.startswith(prefix) and m.name.count("/") == 4]
+        folders = sorted({m.name.split("/")[3] for m in members})[:count]
+        tar.extractall(root, [m for m in members if m.name.split("/")[3] in folders], filter="data")
+    return [root / prefix / f for f in folders]
+
+
+def _rows(matrices: np.ndarray, first: list[str] | None = None) -> str:
+    """Text rows of the matrices' numbers (4x4), or (TUM) of `first` + centre + quaternion."""
+    if first is None:
+        return "".join(" ".join(f"{v:.17g}" for v in M.ravel()) + "\n" for M in matrices)
+    quats = Rotation.from_matrix(matrices[:, :3, :3]).as_quat()
+    return "".join(" ".join([t, *(f"{v:.17g}" for v in (*M[:3, 3], *q))]) + "\n"
+                   for t, M, q in zip(first, matrices, quats, strict=True))
+
+
+def test_official_robot_positions_as_tum_and_matrices_give_the_same_z(official_archive, tmp_path):
+    """Three of the official robot-test recordings (masks named by z in micrometres): their
+    positions as positions.csv, as a TUM trajectory and as 4x4 matrices import to the same z."""
+    for masks in _robot_recordings(official_archive, tmp_path, 3):
+        names = sorted(p.name for p in masks.iterdir())
+        z = np.array([int(n.split(".")[0]) / 1e6 for n in names])
+        out = tmp_path / masks.name
+        out.mkdir()
+        rows = "".join(f"{n},{v!s}\n" for n, v in zip(names, z.tolist(), strict=True))
+        (out / "positions.csv").write_text("frame,z\n" + rows)
+        c2w = c2w_poses(z - z[0], np.zeros(len(z)))
+        (out / "poses.txt").write_text(_rows(c2w))
+        order = np.argsort(z)  # TUM: rows in time order; a mask's time is its name
+        (out / "tum.txt").write_text(_rows(c2w[order], [names[i].split(".")[0] for i in order]))
+        (want, _), = examples(import_recording(masks, out / "positions.csv", out / "csv.zarr", workers=1,
+                                               name="r").path).values()
+        for poses in ("poses.txt", "tum.txt"):
+            (got, _), = examples(import_recording(masks, None, out / f"{poses}.zarr", poses=out / poses,
+                                                  workers=1, name="r").path).values()
+            np.testing.assert_allclose(got - got[0], want - want[0], atol=1e-9, err_msg=f"{masks} {poses}")
