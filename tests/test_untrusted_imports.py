@@ -146,6 +146,57 @@ def test_hostile_recording_is_refused_in_one_line(case, tmp_path, huge_png):
     assert snapshot(tmp_path) == before  # no output, nothing else touched
 
 
+def _npy_declaring(shape: tuple[int, ...], descr: str = "<f8"):
+    """Writes, beside the given path, poses.npy: a header declaring `shape` and no data after it."""
+    def write(f: Path) -> None:
+        with f.with_suffix(".npy").open("wb") as out:
+            header = {"descr": descr, "fortran_order": False, "shape": shape}
+            np.lib.format.write_array_header_1_0(out, header)
+    return write
+
+
+def _sparse(path: Path, size: int) -> None:
+    with path.open("wb") as f:
+        f.truncate(size)
+
+
+_TURN = " ".join(map(str, np.diag([1.0, 1.1, 1.0, 1.0]).ravel()))  # a 4x4 matrix that is not a rotation
+HOSTILE_POSES = {  # name: (writes the pose file, what the error line says)
+    "a TUM row with NaN": (lambda f: f.write_text("1 0 0 0 0 0 0 1\n2 0 nan 0 0 0 0 1\n"),
+                           "poses.txt line 2, field 3: 'nan' is not a finite number"),
+    "a non-unit quaternion": (lambda f: f.write_text("1 0 0 0 0 0 0.5 1\n"),
+                              "poses.txt line 1: quaternion qx qy qz qw has norm 1.11803"),
+    "a matrix that is not a rotation": (lambda f: f.write_text(_TURN + "\n"),
+                                        "poses.txt line 1: the rotation part is not orthonormal"),
+    "a KITTI row of 11 numbers": (lambda f: f.write_text("1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 0 0 0 1\n"),
+                                  "poses.txt line 2: 11 numbers, expected 12 as on line 1"),
+    "a line of 10^6 fields": (lambda f: f.write_text("0 " * 10**6 + "\n"),
+                              "poses.txt line 1: longer than a pose row can be"),
+    "3x10^6 blank lines": (lambda f: f.write_text("\n" * 3 * 10**6), "poses.txt: more than 2000000 lines"),
+    "a 2 GB pose file": (lambda f: _sparse(f, 2 << 30), "poses.txt: 2147483648 bytes, more than"),
+    "a .npy declaring 10^12 poses": (_npy_declaring((10**12, 4, 4)),
+                                     "poses.npy: 1000000000000 poses; expected 1 to 1000000"),
+    "a .npy shorter than its header": (_npy_declaring((6, 4, 4)),
+                                       "poses.npy: shorter than the 6 poses its header declares"),
+    "a .npy of objects (a pickle)": (_npy_declaring((6, 4, 4), "|O"),
+                                     "poses.npy: holds a object array of shape (6, 4, 4)"),
+}
+
+
+@pytest.mark.parametrize("case", HOSTILE_POSES)
+def test_hostile_pose_file_is_refused_in_one_line(case, tmp_path):
+    write, says = HOSTILE_POSES[case]
+    rec = recording(tmp_path)
+    write(rec / "poses.txt")
+    poses = next(rec.glob("poses.*"))
+    before = snapshot(tmp_path)
+    r = odms("import", "recording", rec / "masks", "--poses", poses, "-o", "out.zarr", "--workers", "1",
+             cwd=tmp_path)
+    assert r.returncode == 2 and r.stderr.startswith("odms-data: error: ") and says in r.stderr, r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert snapshot(tmp_path) == before
+
+
 def release(root: Path) -> Path:
     """A data/ folder of the release's layout: val/normal/synthetic_1 with 10 numbered masks."""
     folder = root / "data" / "val" / "normal" / "synthetic_1"

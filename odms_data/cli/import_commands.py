@@ -7,6 +7,7 @@ import click
 from ..errors import InputError
 from ..importers.odmd import ODMD_SETS
 from ..importers.plan import DEFAULT_THRESHOLD
+from ..importers.poses import DEFAULT_MAX_ROTATION, DEFAULT_TIME_TOLERANCE, DIRECTIONS
 from ..importers.result import ImportResult
 from ..importers.synthia_protocol import (
     CAMERAS,
@@ -146,8 +147,18 @@ def odmd(data_dir, out_dir, sets, fmt, overwrite, as_json):
 
 @import_group.command("recording")
 @click.argument("mask_dir", type=click.Path())
-@click.option("--positions", type=click.Path(), required=True,
-              help="CSV with columns frame, z[, depth] (schemas/RECORDING.md).")
+@click.option("--positions", type=click.Path(), default=None,
+              help="CSV with columns frame, z[, depth] (schemas/RECORDING.md); or give --poses.")
+@click.option("--poses", type=click.Path(), default=None,
+              help="Camera poses instead of --positions: 4x4 matrices (text rows of 16 numbers or .npy), "
+                   "KITTI odometry 3x4 rows, or a TUM trajectory (schemas/RECORDING.md).")
+@click.option("--pose", type=click.Choice(DIRECTIONS), default="camera-to-world", show_default=True,
+              help="What the --poses matrices map (TUM's and KITTI's map the camera to the world).")
+@click.option("--time-tolerance", type=click.FloatRange(min=0), default=DEFAULT_TIME_TOLERANCE,
+              show_default=True, help="Seconds between a frame's time (its file name) and its TUM pose.")
+@click.option("--max-rotation", type=click.FloatRange(0, 180), default=DEFAULT_MAX_ROTATION,
+              show_default=True, help="Degrees an example's frames may turn (--poses); turning more, it is "
+                                       "refused and listed.")
 @click.option("-o", "--output", type=click.Path(), default=None,
               help="Output store (default: <MASK_DIR name>.zarr).")
 @click.option("--windows", default=None, metavar="N,N,...",
@@ -168,8 +179,8 @@ def odmd(data_dir, out_dir, sets, fmt, overwrite, as_json):
 @click.option("--workers", type=click.IntRange(min=1), default=None,
               show_default="all cores", help="Decoding processes.")
 @click.option("--json", "as_json", is_flag=True, help="Print what was written as JSON.")
-def recording(mask_dir, positions, output, windows, n_obs, threshold, d1, name, fmt, overwrite,
-              skip_bad, workers, as_json):
+def recording(mask_dir, positions, poses, pose, time_tolerance, max_rotation, output, windows, n_obs,
+              threshold, d1, name, fmt, overwrite, skip_bad, workers, as_json):
     """Import your own recording: a folder of masks plus the camera position of each.
 
     Masks are PNG or JPEG files of any segmentation method; unlabelled recordings (no depth
@@ -179,15 +190,19 @@ def recording(mask_dir, positions, output, windows, n_obs, threshold, d1, name, 
     Examples:
       odms-data import recording masks/ --positions positions.csv -o cup.zarr
       odms-data import recording masks/ --positions positions.csv --windows 10,15,20,25,30 --n-obs 10
+      odms-data import recording masks/ --poses trajectory.txt --d1 0.4 --windows 10,15 --n-obs 10
     """
     from ..importers.recording import import_recording
 
+    if (positions is None) == (poses is None):
+        raise InputError("give the camera's --positions (a CSV) or its --poses (a pose file), one of them")
     window_list = _counts("--windows", windows)
     if n_obs is not None and window_list is None:
         raise InputError("--n-obs applies to windowed examples; give --windows too")
     with Bars("importing {}") as bars:
         result = import_recording(
-            mask_dir, positions, output, windows=window_list, n_obs=n_obs or 10, threshold=threshold,
+            mask_dir, positions, output, poses=poses, pose=pose, time_tolerance=time_tolerance,
+            max_rotation=max_rotation, windows=window_list, n_obs=n_obs or 10, threshold=threshold,
             d1=d1, name=name, fmt=fmt, overwrite=overwrite, skip_bad=skip_bad, workers=workers,
             progress=bars,
         )
@@ -198,7 +213,7 @@ def recording(mask_dir, positions, output, windows, n_obs, threshold, d1, name, 
         return
     echo_text(f"wrote {result.path}: {counts['examples']} example(s) ({counts['labelled']} labelled), "
                f"{counts['frames']} frames, digest {result.attrs.digest}")
-    _report_skipped(result, "row(s) or file(s)")
+    _report_skipped(result, "row(s) or file(s)" if poses is None else "file(s) or turning example(s)")
 
 
 @import_group.command("synthia")

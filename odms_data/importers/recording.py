@@ -1,6 +1,9 @@
-"""Importing a user's own recording: a folder of mask images and a positions CSV -> a store.
+"""Importing a user's own recording: a folder of mask images and a positions CSV or a camera pose
+file -> a store.
 
-The CSV's columns and units are documented in schemas/RECORDING.md. Frames are ordered by z
+The CSV's columns, the pose formats and units are documented in schemas/RECORDING.md. With poses,
+z is the camera's position along the first frame's optical axis, and an example whose frames turn
+more than `max_rotation` degrees is refused and listed (kind "skipped"). Frames are ordered by z
 (closest first). The store holds one example over all frames, or the robot protocol's windowed
 examples (`windows` lengths, `n_obs` frames evenly spaced in each). Labels come from a `depth`
 column (d1 = depth at an example's closest frame), from a known `d1` for a static object (depth =
@@ -26,6 +29,18 @@ from .builder import Importer, Progress
 from .decoding import Workers
 from .mask_files import MaskFile, is_mask_file
 from .plan import DEFAULT_THRESHOLD, MaskPlan, Skips, store_name
+from .poses import (
+    DEFAULT_MAX_ROTATION,
+    DEFAULT_TIME_TOLERANCE,
+    DIRECTIONS,
+    axis_positions,
+    camera_pose,
+    camera_to_world,
+    check_pose_direction,
+    match_times,
+    read_poses,
+    window_rotations,
+)
 from .result import ImportResult
 
 if TYPE_CHECKING:
@@ -138,14 +153,63 @@ def read_positions(
         skips.oddities
 
 
+def _frame_times(files: list[Path]) -> np.ndarray:
+    """Each frame's time from its file name (1305031102.175304.png)."""
+    times = np.empty(len(files))
+    for k, f in enumerate(files):
+        try:
+            times[k] = float(f.stem)
+        except ValueError:
+            times[k] = math.nan
+        if not math.isfinite(times[k]):
+            raise InputError(f"{f}: its name is not a time in seconds; TUM poses are matched to frames "
+                             "named by their time (e.g. 1305031102.175304.png)")
+    return times
+
+
+def read_pose_frames(
+    poses: Path, mask_dir: Path, direction: str, time_tolerance: float
+) -> tuple[list[Path], np.ndarray, np.ndarray]:
+    """The folder's mask files (by name), their z and camera-to-world matrices, from a pose file:
+    one pose per mask in name order, or (TUM) the pose nearest each mask's time."""
+    files = sorted(p for p in mask_dir.iterdir() if is_mask_file(p))
+    table = read_poses(poses)
+    if table.times is None:
+        if len(table.matrices) != len(files):
+            raise InputError(f"{poses}: {len(table.matrices)} poses for {len(files)} masks in {mask_dir} "
+                             "(one pose per mask, in the order of the masks' names)")
+        matrices = table.matrices
+    else:
+        matrices = table.matrices[match_times(table, _frame_times(files), [str(f) for f in files],
+                                              time_tolerance)]
+    c2w = camera_to_world(matrices, direction)
+    check_pose_direction(str(poses), {i: camera_pose(M, "camera-to-world") for i, M in enumerate(c2w)},
+                         direction)
+    return files, axis_positions(c2w), c2w
+
+
+def _turning(
+    ids: list[str], frame_index: np.ndarray, c2w: np.ndarray | None, max_rotation: float
+) -> tuple[np.ndarray, list[Oddity]]:
+    """Which examples turn at most max_rotation degrees, and an oddity for each of the others."""
+    if c2w is None:
+        return np.ones(len(ids), bool), []
+    turn = window_rotations(c2w, frame_index)
+    keep = turn <= max_rotation
+    return keep, [Oddity(SKIPPED, ids[e], f"{ids[e]}: its frames turn by {turn[e]:.2f} degrees, more than "
+                         f"max_rotation {max_rotation:g}") for e in np.flatnonzero(~keep)]
+
+
 def make_plan(
     name: str, mask_dir: Path, files: list[Path], z: np.ndarray, depth: np.ndarray,
     windows: list[int] | None, n_obs: int, threshold: int, skipped: list[Oddity],
+    c2w: np.ndarray | None = None, max_rotation: float = DEFAULT_MAX_ROTATION,
 ) -> MaskPlan:
     if len(files) < 2:
         raise InputError(f"{mask_dir}: {len(files)} usable frame(s), at least 2 are needed")
     order = np.argsort(z, kind="stable")
     files, z, depth = [files[i] for i in order], z[order], depth[order]
+    c2w = c2w[order] if c2w is not None else None
     n = len(files)
     if windows:
         too_long = [w for w in windows if w > n]
@@ -160,13 +224,18 @@ def make_plan(
         frame_index = np.stack([idx for _, _, idx in spans])
     else:
         ids, frame_index = [f"{name}/all"], np.arange(n)[None, :]
+    keep, turned = _turning(ids, frame_index, c2w, max_rotation)
+    if not keep.any():
+        raise InputError(f"{mask_dir}: every example turns more than max_rotation {max_rotation:g} "
+                         f"degrees ({turned[0].detail})")
+    ids, frame_index = [i for i, k in zip(ids, keep, strict=True) if k], frame_index[keep]
     d1 = depth[frame_index[:, 0]]
     return MaskPlan(
         split=name, domain="recording", source=f"recording {mask_dir.name}",
         masks=[MaskFile(f) for f in files], z=z,
         depth=depth, frame_index=frame_index, d1=d1, ids=ids, sources=[mask_dir.name] * len(ids),
         frames_per_chunk=FRAMES_PER_CHUNK, frames_per_shard=FRAMES_PER_SHARD,
-        oddities=list(skipped), threshold=threshold,
+        oddities=list(skipped) + turned, threshold=threshold,
     )
 
 
@@ -184,6 +253,18 @@ def _check_options(mask_dir: Path, threshold: int, n_obs: int, windows: list[int
         raise InputError(f"d1 {d1} is not a positive distance")
 
 
+def _check_pose_options(positions: str | Path | None, poses: str | Path | None, pose: str,
+                        time_tolerance: float, max_rotation: float) -> None:
+    if (positions is None) == (poses is None):
+        raise InputError("give the camera as either positions (a CSV) or poses (a pose file), one of them")
+    if pose not in DIRECTIONS:
+        raise InputError(f"pose '{pose}': expected {' or '.join(DIRECTIONS)}")
+    if not time_tolerance >= 0 or not math.isfinite(time_tolerance):
+        raise InputError(f"time tolerance {time_tolerance}: expected seconds >= 0")
+    if not 0 <= max_rotation <= 180:
+        raise InputError(f"max_rotation {max_rotation}: expected degrees from 0 to 180")
+
+
 @dataclass
 class RecordingImporter(Importer):
     """A recording's frames as read from its CSV, less those left out so far."""
@@ -198,23 +279,31 @@ class RecordingImporter(Importer):
     threshold: int
     skipped: list[Oddity]
     skip_bad: bool = False
+    c2w: np.ndarray | None = None  # (frames, 4, 4) camera-to-world, from a pose file
+    max_rotation: float = DEFAULT_MAX_ROTATION
 
     def plan(self) -> MaskPlan:
         return make_plan(self.name, self.mask_dir, self.files, self.z, self.depth, self.windows, self.n_obs,
-                         self.threshold, self.skipped)
+                         self.threshold, self.skipped, self.c2w, self.max_rotation)
 
     def drop(self, plan: MaskPlan, failures: list[tuple[int, str]]) -> None:
         bad = {str(plan.masks[row]) for row, _ in failures}
         self.skipped = self.skipped + [Oddity(SKIPPED, plan.masks[row].name, m) for row, m in failures]
         keep = [i for i, f in enumerate(self.files) if str(f) not in bad]
         self.files, self.z, self.depth = [self.files[i] for i in keep], self.z[keep], self.depth[keep]
+        if self.c2w is not None:
+            self.c2w = self.c2w[keep]
 
 
 def import_recording(
     mask_dir: str | Path,
-    positions: str | Path,
+    positions: str | Path | None = None,
     out: str | Path | None = None,
     *,
+    poses: str | Path | None = None,
+    pose: str = "camera-to-world",
+    time_tolerance: float = DEFAULT_TIME_TOLERANCE,
+    max_rotation: float = DEFAULT_MAX_ROTATION,
     windows: list[int] | None = None,
     n_obs: int = 10,
     threshold: int = DEFAULT_THRESHOLD,
@@ -226,22 +315,31 @@ def import_recording(
     workers: int | None = None,
     progress: Progress | None = None,
 ) -> ImportResult:
-    """Import the recording into a store at `out` (default `<mask_dir name>.zarr`). With skip_bad,
-    bad rows and files are left out and recorded as oddities of kind "skipped".
+    """Import the recording into a store at `out` (default `<mask_dir name>.zarr`), its camera given by
+    `positions` (a CSV) or `poses` (a pose file in the `pose` direction). With skip_bad, bad rows and
+    files are left out and recorded as oddities of kind "skipped", as are examples that turn more
+    than `max_rotation` degrees.
     `progress(mask_dir, done, total)` follows the decoding."""
     label = str(mask_dir)
-    mask_dir, positions = Path(mask_dir), Path(positions)
+    mask_dir = Path(mask_dir)
     _check_options(mask_dir, threshold, n_obs, windows, d1)
+    _check_pose_options(positions, poses, pose, time_tolerance, max_rotation)
     if out is None:
         out = store_path(".", mask_dir.resolve().name, "hdf5" if fmt == "hdf5" else "zarr")
     out = Path(out)
     name = store_name(name, out, mask_dir.resolve().name, "recording")
-    files, z, depth, skipped = read_positions(positions, mask_dir, skip_bad)
+    c2w, depth, skipped = None, None, list[Oddity]()
+    if poses is not None:
+        files, z, c2w = read_pose_frames(Path(poses), mask_dir, pose, time_tolerance)
+    else:
+        positions = Path(str(positions))
+        files, z, depth, skipped = read_positions(positions, mask_dir, skip_bad)
     if depth is not None and d1 is not None:
         raise InputError(f"{positions}: has a depth column; give either per-frame depth or d1, not both")
     if depth is None:  # a known d1 means a static object: depth = d1 + z - smallest z
         with np.errstate(over="ignore"):  # an overflow to inf is refused with the format's rules
             depth = d1 + (z - z.min()) if d1 is not None and len(z) else np.full(len(z), math.nan)
-    source = RecordingImporter(name, mask_dir, files, z, depth, windows, n_obs, threshold, skipped, skip_bad)
+    source = RecordingImporter(name, mask_dir, files, z, depth, windows, n_obs, threshold, skipped, skip_bad,
+                               c2w, max_rotation)
     with Workers(workers) as pool:
         return source.write(out, fmt, pool, label=label, overwrite=overwrite, progress=progress)

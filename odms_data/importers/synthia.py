@@ -30,6 +30,7 @@ from .builder import Importer, Progress
 from .decoding import Workers
 from .mask_files import image_size, read_png
 from .plan import MaskPlan, MaskSource, Skips, store_name
+from .poses import Pose, camera_pose, check_pose_direction, rotation_problem
 from .result import ImportResult, SequenceCounts, SynthiaSummary
 from .synthia_protocol import CAMERAS, CLASS_NAMES, PAPER_SELECTION, SYNTHIA_POSES, PoseConvention, Selection
 
@@ -40,60 +41,6 @@ OCCLUSION_MARGIN = 0.5  # m; a neighbouring pixel this much closer than the obje
 REQUIRED = ("GT/LABELS", "Depth", "CameraParams")
 FRAMES_PER_CHUNK = 32
 FRAMES_PER_SHARD = 1024
-Pose = tuple[np.ndarray, np.ndarray]  # camera centre, unit optical axis; world coordinates, m
-
-
-# The camera is fixed to the car: the angle between its movement from one frame to the next and
-# its optical axis (the mean of the two frames' axes, which a chord along a turn parallels) stays
-# nearly constant along a sequence, or becomes 180 degrees minus itself while the car backs up.
-# Read in the wrong direction, the "centre" is -R^T t, and on a straight stretch of road that
-# angle is 180 degrees minus the car's heading: from one stretch to the next it changes by about
-# the turn between them. Where a car turns, the angle of a camera L ahead of the rear axle moves
-# off by atan(L / R) for a turn of radius R, either way: with L = 3 m (the front axle of a large
-# car) and R = 4.5 m (a car's tightest turn, at the rear axle) that is 34 degrees, so 68 degrees of
-# spread for a side camera through tight left and right turns (34 for a front or back camera);
-# tests/importers/test_import_synthia.py drives that case at SYNTHIA's 5 frames per second.
-# MAX_ANGLE_SPREAD keeps a margin above it.
-MAX_ANGLE_SPREAD = 80.0  # degrees
-MIN_MOVE = 0.05  # m between frames (0.9 km/h at 5 fps): below it the car stands and its movement is noise
-NEAR_HALT = 0.8  # m: the most a car braking or starting at 1 g covers in a frame beside a halt
-
-
-def angle_spread(poses: dict[int, Pose]) -> float:
-    """The range, in degrees, of the angle between the camera's movement from each frame to the
-    next and its optical axis, over the consecutive frames that move at least MIN_MOVE (0 for
-    fewer than two). A movement against the one before it, one of them slow enough to be beside
-    a halt (NEAR_HALT), is the car changing between driving and backing up: while it backs up,
-    the angle of its reversed movement counts."""
-    angles: list[float] = []
-    before, before_length, backing = None, 0.0, False
-    for f in sorted(poses):
-        if f + 1 not in poses:
-            continue
-        (c0, a0), (c1, a1) = poses[f], poses[f + 1]
-        move, axis = c1 - c0, a0 + a1
-        length, width = float(np.linalg.norm(move)), float(np.linalg.norm(axis))
-        if length < MIN_MOVE or width == 0:
-            continue
-        if before is not None and np.dot(move, before) < 0 and min(length, before_length) < NEAR_HALT:
-            backing = not backing  # through a halt: its heading cannot turn that far in a frame
-        before, before_length = move, length
-        cos = float(np.clip(np.dot(move, axis) / (length * width), -1, 1))
-        angles.append(math.degrees(math.acos(-cos if backing else cos)))
-    return max(angles) - min(angles) if angles else 0.0
-
-
-def check_pose_direction(name: str, poses: dict[int, Pose], convention: PoseConvention) -> None:
-    """InputError when the angle between the camera's movement and its optical axis varies along
-    the sequence `name` more than a camera fixed to a car allows (MAX_ANGLE_SPREAD): its poses are
-    then probably read in the wrong direction."""
-    spread = angle_spread(poses)
-    if spread > MAX_ANGLE_SPREAD:
-        other = "world-to-camera" if convention.direction == "camera-to-world" else "camera-to-world"
-        raise InputError(f"{name}: the angle between the camera's movement and its optical axis varies by "
-                         f"{spread:.0f} degrees along the sequence, more than the {MAX_ANGLE_SPREAD:.0f} "
-                         f"a camera fixed to a car can: its poses are probably not {convention.direction} "
-                         "matrices", fix=f"pose-{other}")
 
 
 # --- the sequence's files ------------------------------------------------------------------
@@ -176,15 +123,10 @@ def read_pose(path: Path, convention: PoseConvention) -> Pose:
         other = "row-major" if convention.order == "column-major" else "column-major"
         raise InputError(f"{path}: the matrix's last row is {' '.join(f'{v:g}' for v in M[3])}, not 0 0 0 1",
                          fix=f"matrix-order-{other}")
-    R = M[:3, :3]
-    if not np.allclose(R.T @ R, np.eye(3), atol=1e-4):
-        raise InputError(f"{path}: the rotation part is not orthonormal (not a camera pose)")
-    if convention.direction == "camera-to-world":
-        centre, axes = M[:3, 3], R  # columns: the camera's axes in the world
-    else:
-        centre, axes = -R.T @ M[:3, 3], R.T
-    axis = axes[:, 2] if convention.forward == "+z" else -axes[:, 2]
-    return centre, axis / np.linalg.norm(axis)
+    problem = rotation_problem(M[:3, :3], proper=False)  # SYNTHIA's cameras may mirror an axis
+    if problem:
+        raise InputError(f"{path}: {problem}")
+    return camera_pose(M, convention.direction, convention.forward)
 
 
 # --- scanning the label and depth images (on the workers) ----------------------------------
@@ -357,7 +299,7 @@ def _read_poses(
             except InputError as e:
                 seq.drop(f)
                 skips.add(f"{seq.name} frame {f}", e)
-        check_pose_direction(seq.name, poses[seq.name], convention)
+        check_pose_direction(seq.name, poses[seq.name], convention.direction)
     return poses
 
 

@@ -20,13 +20,12 @@ from odms_data.cli import main
 from odms_data.cli.fixes import with_fix
 from odms_data.errors import InputError
 from odms_data.evaluation.vosde import vosde
-from odms_data.importers import synthia
+from odms_data.importers import poses
 from odms_data.importers.decoding import Workers
+from odms_data.importers.poses import MAX_ANGLE_SPREAD, angle_spread
 from odms_data.importers.synthia import (
-    MAX_ANGLE_SPREAD,
     Sighting,
     Track,
-    angle_spread,
     import_synthia,
     plan_store,
     read_pose,
@@ -468,9 +467,9 @@ def test_halts_and_backing_up_are_not_taken_for_a_wrong_direction(tmp_path, monk
     got = spreads(tmp_path, stop_and_go)
     assert got["camera-to-world"] < 1 and got["world-to-camera"] > MAX_ANGLE_SPREAD
     assert spreads(tmp_path, driven(*BACKING_UP))["camera-to-world"] < 1
-    monkeypatch.setattr(synthia, "NEAR_HALT", 0.0)  # no reversal recognised
+    monkeypatch.setattr(poses, "NEAR_HALT", 0.0)  # no reversal recognised
     assert spreads(tmp_path, driven(*BACKING_UP))["camera-to-world"] > MAX_ANGLE_SPREAD
-    monkeypatch.setattr(synthia, "MIN_MOVE", 0.0)
+    monkeypatch.setattr(poses, "MIN_MOVE", 0.0)
     assert spreads(tmp_path, stop_and_go)["camera-to-world"] > MAX_ANGLE_SPREAD
 
 
