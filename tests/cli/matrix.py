@@ -132,6 +132,9 @@ ROLES: dict[str, tuple[str, str]] = {  # key -> (kind, suffix of its base value 
 }
 
 
+INTO = {"import odmd out_dir", "import odms out_dir"}  # outputs that are folders of outputs
+
+
 class Unclassified(Exception):
     pass
 
@@ -577,6 +580,7 @@ class MatrixCase:
     setup: Setup | None
     outputs: tuple[str, ...]  # paths (relative to the working folder) a success may change
     payload: str = ""
+    into: tuple[str, ...] = ()  # outputs that are folders the command writes its outputs into
 
 
 def _argv(command: tuple[str, ...], given: dict[str, str | list[str] | tuple[str, ...]],
@@ -610,9 +614,11 @@ def cases_of(path: tuple[str, ...], cmd: click.Command) -> Iterator[MatrixCase]:
     base, needs = BASES[command]
     params = [p for p in cmd.params if p.name != "help"]
     outputs = tuple(str(v) for k, v in base.items() if ROLES.get(f"{command} {k}", ("",))[0] == OUT)
+    into = tuple(str(v) for k, v in base.items() if f"{command} {k}" in INTO)
     if command == "generate":
         outputs += ("generated.zarr",)
-    yield MatrixCase(f"{command}: (base)", "base", tuple(_argv(path, base, params)), needs, None, outputs)
+    yield MatrixCase(f"{command}: (base)", "base", tuple(_argv(path, base, params)), needs, None, outputs,
+                     into=into)
     for p in params:
         slot = Slot(path, p)
         kind = kind_of(slot)
@@ -624,10 +630,13 @@ def cases_of(path: tuple[str, ...], cmd: click.Command) -> Iterator[MatrixCase]:
                 given[p.name] = list(value.args)
             else:
                 given[p.name] = value.args[0]
-            outs = outputs if kind != OUT else (*[o for o in outputs if o != base.get(p.name)], *value.args)
+            outs, ins = outputs, into
+            if kind == OUT:
+                outs = (*[o for o in outputs if o != base.get(p.name)], *value.args)
+                ins = value.args if slot.key in INTO else into
             yield MatrixCase(f"{command} {slot.flag or p.name}: {value.name}", kind,
                              tuple(_argv(path, given, params, p.name if kind == "flag" else None)),
-                             needs, value.setup, outs, value.payload)
+                             needs, value.setup, outs, value.payload, ins)
 
 
 def all_cases() -> list[MatrixCase]:
@@ -769,18 +778,18 @@ def judge(case: MatrixCase, r: Result, before: dict[str, str], after: dict[str, 
           killed: bool) -> list[str]:
     """The rule every run is judged by; the broken promises (empty: all kept)."""
     markers = sorted(k for k in set(after) - set(before) if Path(k).name.startswith("marker-"))
+    outputs = _outputs(case, root)
     after = {k: v for k, v in after.items() if k not in markers}
     if killed:
         progress = [x for x in r.err.splitlines() if x.strip() and not x.startswith("odms-data:")]
         broken = [] if progress else [f"still running after {TIMEOUT:.0f} s and showing no progress"]
         changed = {k for k in set(before) | set(after) if before.get(k) != after.get(k)}
-        outside = sorted(k for k in changed if not _in(k, case) and not _in(k.rsplit(".", 1)[0], case)
+        outside = sorted(k for k in changed if not _in(k, outputs) and not _in(k.rsplit(".", 1)[0], outputs)
                          and ".partial/" not in k)
         broken += [f"changed outside the outputs: {outside[:4]}"] if outside else []
     else:
         expect = r.rc if r.rc in (0, 1) and (r.rc == 0 or case.args[0] == "validate") else 2
-        as_case = Case("matrix", case.id, list(case.args), expect=expect,
-                       outputs=tuple(f"cwd/{o}" for o in case.outputs))
+        as_case = Case("matrix", case.id, list(case.args), expect=expect, outputs=outputs)
         broken = promises_broken(as_case, r, before, after)
     broken += [f"code ran: {', '.join(markers)}"] if markers else []
     raw = sorted({repr(c) for c in r.out + r.err if c in CONTROL})
@@ -796,8 +805,19 @@ def judge(case: MatrixCase, r: Result, before: dict[str, str], after: dict[str, 
     return broken
 
 
-def _in(k: str, case: MatrixCase) -> bool:
-    return any(k == f"cwd/{o}" or k.startswith(f"cwd/{o}/") for o in case.outputs)
+def _outputs(case: MatrixCase, root: Path) -> tuple[str, ...]:
+    """The case's outputs as paths under root; a folder the command writes into may be `.`, and
+    may be a link to a folder elsewhere, which it then writes into."""
+    out = [f"cwd/{o}" for o in case.outputs if o not in case.into]
+    for o in case.into:
+        out.append(os.path.normpath(f"cwd/{o}"))
+        if os.path.islink(root / "cwd" / o):
+            out.append(os.path.relpath(os.path.realpath(root / "cwd" / o), root))
+    return tuple(out)
+
+
+def _in(k: str, outputs: tuple[str, ...]) -> bool:
+    return any(k == o or k.startswith(f"{o}/") for o in outputs)
 
 
 class Server:
