@@ -306,7 +306,8 @@ def promises_broken(case: Case, r: Result, before: dict[str, str], after: dict[s
         broken.append(f"a failure changed {sorted(changed)[:4]}")
     elif changed - allowed:
         broken.append(f"changed outside the outputs: {sorted(changed - allowed)[:4]}")
-    litter = [k for k in after if k.endswith((".partial", ".lock")) or ".partial/" in k]
+    litter = [k for k in after if before.get(k) != after[k] and (k.endswith((".partial", ".lock"))
+                                                                 or ".partial/" in k)]
     litter += [f"disk/{x}" for x in r.leftovers]
     if litter:
         broken.append(f"left behind: {litter[:4]}")
