@@ -27,6 +27,7 @@ import click
 from .._version import __version__
 from ..errors import Interrupted, OdmsError
 from ..interrupts import STOP_SIGNALS, stop_requested
+from ..parallel import safe_children
 from ..shown_text import for_terminal
 
 
@@ -168,6 +169,7 @@ class OdmsGroup(click.Group):
         if not standalone_mode:
             return super().main(args, prog_name, complete_var, standalone_mode, **extra)
         _printable_anywhere()
+        safe_children()
         with _signals_interrupt():
             try:
                 code = super().main(args, prog_name, complete_var, False, **extra)

@@ -11,7 +11,6 @@ from __future__ import annotations
 import os
 import sys
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from contextlib import AbstractContextManager, contextmanager
 from dataclasses import dataclass, field
 from typing import TypeVar
@@ -19,7 +18,7 @@ from typing import TypeVar
 import numpy as np
 
 from ..errors import InputError
-from ..parallel import cores, end_pool, pool_map, worker_pool
+from ..parallel import WorkerPool, cores, end_pool, pool_map, worker_pool
 from ..store.digest import frame_digests
 from ..store.masks import FrameStats, pack, packed_width
 from ..store.shard_writer import MaskSink
@@ -107,7 +106,7 @@ class Workers:
 
     def __init__(self, workers: int | None = None) -> None:
         self.n = workers if workers is not None else cores()
-        self.pool: ProcessPoolExecutor | None = None
+        self.pool: WorkerPool | None = None
 
     def __enter__(self) -> Workers:
         if self.n > 1:
