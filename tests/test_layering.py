@@ -18,7 +18,7 @@ LAYERS = {
     "_version": 0, "errors": 0,
     "interrupts": 1,
     "safe_json": 2, "protocol": 2, "extras": 2, "resources": 2, "paths": 2, "shown_text": 2, "parallel": 2,
-    "outputs": 2,
+    "outputs": 2, "pickles": 2,
     "store": 3,
     "simulate": 4, "importers": 4, "evaluation": 4, "publish": 4,
     "loaders": 5,

@@ -119,7 +119,7 @@ def test_odmd_conversion_takes_a_robot_window_from_its_far_end(tmp_path):
 
 @pytest.mark.parametrize(("dataset", "name"), sorted(PUBLISHED))
 def test_published_box_ls_on_odmds_own_sets(dataset, name, odmd_data):
-    from odms_data.importers.odmd_pickle import load_pickle
+    from odms_data.pickles import load_pickle
 
     d = load_pickle(odmd_data / dataset / "test" / name)
     bb, move = d["bb"]["bboxes"], d["bb_3D"]["camera_movement"]

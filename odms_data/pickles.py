@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
+from .errors import InputError
 
 MAX_FILE_BYTES = 256 * 2**20  # ODMD's largest set is 2.6 MB
 MAX_ELEMENTS = 32 * 2**20  # per array

@@ -7,9 +7,9 @@ import pickle
 import numpy as np
 import pytest
 
+from odms_data import pickles
 from odms_data.errors import InputError
-from odms_data.importers import odmd_pickle
-from odms_data.importers.odmd_pickle import load_pickle
+from odms_data.pickles import load_pickle
 
 
 def _write(tmp_path, data: bytes, name="set.pk"):
@@ -99,7 +99,7 @@ def test_a_huge_memo_index_allocates_nothing(tmp_path):
 
 
 def test_files_beyond_the_bound_are_not_read(tmp_path, monkeypatch):
-    monkeypatch.setattr(odmd_pickle, "MAX_FILE_BYTES", 100)
+    monkeypatch.setattr(pickles, "MAX_FILE_BYTES", 100)
     with pytest.raises(InputError, match=r"larger than 0 MiB"):
         load_pickle(_write(tmp_path, pickle.dumps(list(range(100)), protocol=3)))
 
