@@ -1,15 +1,22 @@
-"""The restricted reader of ODMD's pickles: what NumPy writes comes back; nothing else runs."""
+"""The restricted reader of pickles and checkpoints: what NumPy and torch write comes back, within
+bounds; nothing else runs."""
 
 from __future__ import annotations
 
+import ast
 import pickle
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
 
 import numpy as np
 import pytest
+import torch
 
 from odms_data import pickles
 from odms_data.errors import InputError
-from odms_data.pickles import load_pickle
+from odms_data.pickles import load_checkpoint, load_pickle
 
 
 def _write(tmp_path, data: bytes, name="set.pk"):
@@ -117,3 +124,127 @@ def test_deep_nesting_is_refused(tmp_path):
         obj = [obj]
     with pytest.raises(InputError, match="nests deeper than 32"):
         load_pickle(_write(tmp_path, pickle.dumps(obj, protocol=3)))
+
+
+def test_shared_sub_lists_count_each_time_they_are_reached(tmp_path):
+    """A few hundred bytes whose memo shares each level's list 8 times: 8^7 elements once expanded."""
+    obj: list = [0] * 8
+    for _ in range(6):
+        obj = [obj] * 8
+    data = pickle.dumps(obj, protocol=3)
+    assert len(data) < 600
+    with pytest.raises(InputError, match=r"reaches more than 1048576 elements"):
+        load_pickle(_write(tmp_path, data))
+
+
+def test_a_dict_key_nested_a_million_deep_is_refused_before_it_is_hashed(tmp_path):
+    """Hashing the key recursed in C and killed the process (SIGSEGV): run apart, to survive it."""
+    key = b"K\x00" + b"\x85" * 1_000_000  # BININT1 0, then TUPLE1 a million times
+    path = _write(tmp_path, b"\x80\x03}" + key + b"K\x01s.")  # EMPTY_DICT, key, value, SETITEM
+    r = subprocess.run([sys.executable, "-c", f"from odms_data.pickles import load_pickle\n"
+                        f"load_pickle({str(path)!r})"], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 1 and "refused: it nests deeper than 32 levels" in r.stderr, r.stderr[-300:]
+
+
+def test_a_value_that_contains_itself_is_refused(tmp_path):
+    obj: list = []
+    obj.append(obj)
+    with pytest.raises(InputError, match="contains itself"):
+        load_pickle(_write(tmp_path, pickle.dumps(obj, protocol=3)))
+
+
+# -- checkpoints
+
+
+def _deflate_storages(src: Path, dst: Path) -> None:
+    with zipfile.ZipFile(src) as a, zipfile.ZipFile(dst, "w") as b:
+        for info in a.infolist():
+            packed = "/data/" in info.filename
+            b.writestr(info.filename, a.read(info), zipfile.ZIP_DEFLATED if packed else zipfile.ZIP_STORED)
+
+
+def test_checkpoints_torch_writes_come_back(tmp_path):
+    saved = {"iteration": 3, "model": {"w": torch.randn(4, 5), "b": torch.zeros(5, dtype=torch.float64)},
+             "rng": torch.get_rng_state(), "best_per_set": {"v": (1.5, 2)}, "seconds": 0.5}
+    torch.save(saved, tmp_path / "c.pt")
+    got = load_checkpoint(tmp_path / "c.pt")
+    assert got["iteration"] == 3 and got["best_per_set"] == {"v": (1.5, 2)}
+    assert torch.equal(got["model"]["w"], saved["model"]["w"]) and torch.equal(got["rng"], saved["rng"])
+
+
+def test_a_compressed_record_is_refused_before_it_is_inflated(tmp_path):
+    """A storage record deflated: 1 MiB of zeros on disk declares 64 MiB once inflated."""
+    torch.save({"w": torch.zeros(16 << 20)}, tmp_path / "plain.pt")
+    _deflate_storages(tmp_path / "plain.pt", tmp_path / "packed.pt")
+    assert (tmp_path / "packed.pt").stat().st_size < 1 << 20
+    with pytest.raises(InputError, match=r"packed.pt: refused: .*data/0 is compressed"):
+        load_checkpoint(tmp_path / "packed.pt")
+
+
+@pytest.mark.parametrize("tensor", [
+    lambda: torch.sparse_coo_tensor([[0, 1], [1, 0]], [1.0, 2.0], (2, 2), check_invariants=True),
+    lambda: torch.ones(2, 2).to_sparse_csr(),
+    lambda: torch._make_per_tensor_quantized_tensor(torch.ones(4, dtype=torch.uint8), 0.1, 0),
+    lambda: torch.ones(3, dtype=torch.complex64),
+], ids=["sparse", "sparse-csr", "quantised", "complex"])
+@pytest.mark.filterwarnings("ignore:torch.quantize_per_tensor")  # torch's deprecation of making them
+def test_layouts_and_dtypes_the_models_never_hold_are_refused(tmp_path, tensor):
+    torch.save({"w": tensor()}, tmp_path / "c.pt")
+    with pytest.raises(InputError, match=r"c.pt: refused: it names torch"):
+        load_checkpoint(tmp_path / "c.pt")
+
+
+def test_a_tensor_viewing_more_than_its_storage_is_refused(tmp_path):
+    torch.save({"w": torch.ones(1).expand(1 << 20)}, tmp_path / "c.pt")  # a stride-0 view of 1 element
+    with pytest.raises(InputError, match=r"views beyond its storage of 1 elements"):
+        load_checkpoint(tmp_path / "c.pt")
+
+
+def test_a_storage_larger_than_its_record_is_refused(tmp_path):
+    torch.save({"w": torch.ones(8)}, tmp_path / "c.pt")
+    with zipfile.ZipFile(tmp_path / "c.pt") as a, zipfile.ZipFile(tmp_path / "d.pt", "w") as b:
+        for info in a.infolist():
+            b.writestr(info.filename, a.read(info)[:16] if info.filename.endswith("data/0") else a.read(info))
+    with pytest.raises(InputError, match=r"declares 8 elements, its record holds 16 bytes"):
+        load_checkpoint(tmp_path / "d.pt")
+
+
+def test_a_run_checkpoint_is_bounded_as_a_given_one(tmp_path):
+    """best.pt had no size bound (read_checkpoint read any size)."""
+    from odms_data.network.runtime import read_checkpoint
+
+    big = tmp_path / "best.pt"
+    with open(big, "wb") as f:
+        f.truncate(pickles.MAX_CHECKPOINT_BYTES + 1)
+    with pytest.raises(InputError, match=r"best.pt: larger than 64 MiB, not a checkpoint"):
+        read_checkpoint(big)
+
+
+def test_the_legacy_stream_must_add_up(tmp_path, odmd_pretrained):
+    data = odmd_pretrained.read_bytes()
+    assert len(load_checkpoint(odmd_pretrained)) == 18  # the authors' DBox, in torch's legacy format
+    _write(tmp_path, data + b"\0", "more.pt")
+    with pytest.raises(InputError, match=r"more.pt: refused: its storages declare"):
+        load_checkpoint(tmp_path / "more.pt")
+
+
+UNTRUSTED_READS = ("pickle", "pickletools", "marshal", "shelve", "dill", "cloudpickle", "joblib", "zipfile")
+
+
+def test_no_module_but_pickles_reads_a_pickle_or_checkpoint():
+    """pickle and its kin are imported, and torch.load / np.load called, only in odms_data/pickles.py."""
+    import odms_data
+
+    root = Path(odms_data.__file__).parent
+    found = []
+    for path in sorted(root.rglob("*.py")):
+        if path == root / "pickles.py":
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = [a.name for a in node.names] if isinstance(node, ast.Import) else \
+                [node.module or ""] if isinstance(node, ast.ImportFrom) else []
+            found += [f"{path.name}: import {n}" for n in names if n.split(".")[0] in UNTRUSTED_READS]
+            if (isinstance(node, ast.Attribute) and node.attr in ("load", "load_state_dict_from_url")
+                    and isinstance(node.value, ast.Name) and node.value.id in ("torch", "np", "numpy")):
+                found.append(f"{path.name}: {node.value.id}.{node.attr}")
+    assert found == []
