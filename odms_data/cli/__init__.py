@@ -29,6 +29,7 @@ from ..errors import Interrupted, OdmsError
 from ..interrupts import STOP_SIGNALS, stop_requested
 from ..parallel import safe_children
 from ..shown_text import for_terminal
+from ..urls import refuse_transient
 
 
 def one_line(message: object) -> str:
@@ -185,8 +186,14 @@ class OdmsGroup(click.Group):
                 code = 128 + signum
         sys.exit(code if isinstance(code, int) else 0)
 
+    def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
+        ctx.meta["arguments"] = list(args)  # every argument of the command, for `invoke`
+        return super().parse_args(ctx, args)
+
     def invoke(self, ctx: click.Context):
         try:
+            for value in ctx.meta["arguments"]:
+                refuse_transient(value.split("=", 1)[-1] if value.startswith("--") else value)
             return super().invoke(ctx)
         except (click.exceptions.Exit, click.ClickException, click.Abort):
             raise

@@ -14,33 +14,13 @@ from typing import Any, ClassVar, Literal, Protocol
 
 from .. import safe_json
 from ..errors import StoreError
+from ..urls import is_url, storage_options, url_filesystem
 from .format import format_of_name
 
 Mode = Literal["r", "r+", "w"]  # read, update, create
 HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
 ZSTD_LEVEL = 3
 GZIP_LEVEL = 1
-
-
-def is_url(path: str) -> bool:
-    return "://" in str(path)
-
-
-def storage_options(path: str) -> dict[str, Any] | None:
-    """fsspec options for a Zarr store at `path`: a `file://` store makes its folders as it writes."""
-    return {"auto_mkdir": True} if str(path).startswith("file://") else None
-
-
-def url_filesystem(url: str) -> tuple[Any, str]:
-    """The fsspec filesystem of a store's URL and the store's path in it, its listings of that
-    path forgotten. fsspec shares one filesystem per process and caches what it lists: without
-    this a store replaced since (by zarr, through another instance) reads as the old one's files,
-    and on S3 an object whose ETag changed cannot be opened."""
-    from fsspec.core import url_to_fs
-
-    fs, root = url_to_fs(url)
-    fs.invalidate_cache(root)
-    return fs, root
 
 
 def detect_format(path: str) -> str:

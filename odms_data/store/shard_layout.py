@@ -15,7 +15,7 @@ import numpy as np
 
 from .. import safe_json
 from ..errors import StoreError
-from .backends import is_url
+from ..urls import is_url
 
 # A shard ends with its index: per inner chunk an (offset, length) pair of little-endian uint64,
 # both MISSING for an absent chunk, then the crc32c of the index, little-endian.

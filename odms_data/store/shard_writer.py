@@ -18,7 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .backends import BACKENDS, GZIP_LEVEL, ZSTD_LEVEL, storage_options
+from ..urls import storage_options
+from .backends import BACKENDS, GZIP_LEVEL, ZSTD_LEVEL
 from .shard_layout import ShardLayout, encode_index
 
 
