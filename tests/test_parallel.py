@@ -317,31 +317,27 @@ def test_only_parallel_starts_child_processes_and_the_command_line_makes_them_sa
     """No module but parallel.py imports a process-starting API (or names PYTHONSAFEPATH), and the
     command line calls parallel.safe_children before running any command."""
     import ast
+    import inspect
 
-    import odms_data
+    from owner_ast import nodes_outside
+
     from odms_data.cli import OdmsGroup
 
-    root = Path(odms_data.__file__).parent
     found = []
-    for path in sorted(root.rglob("*.py")):
-        if path == root / "parallel.py":
-            continue
-        tree = ast.parse(path.read_text())
-        for node in ast.walk(tree):
-            if isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] in {
-                    m.split(".")[0] for m in SPAWNING_MODULES} | {"os"}:
-                found += [f"{path.name}: from {node.module} import {a.name}" for a in node.names
-                          if a.name in SPAWNING]
-            elif isinstance(node, ast.Import):
-                found += [f"{path.name}: import {a.name}" for a in node.names
-                          if a.name in SPAWNING_MODULES or a.name in {"multiprocessing.context",
-                                                                       "multiprocessing.forkserver"}]
-            elif (isinstance(node, ast.Attribute) and node.attr in SPAWNING
-                  and isinstance(node.value, ast.Name)
-                  and node.value.id in {"os", "multiprocessing", "subprocess"}):
-                found.append(f"{path.name}: {node.value.id}.{node.attr}")
-            elif isinstance(node, ast.Constant) and node.value == "PYTHONSAFEPATH":
-                found.append(f"{path.name}: PYTHONSAFEPATH")
+    for name, node in nodes_outside("parallel.py"):
+        if isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] in {
+                m.split(".")[0] for m in SPAWNING_MODULES} | {"os"}:
+            found += [f"{name}: from {node.module} import {a.name}" for a in node.names if a.name in SPAWNING]
+        elif isinstance(node, ast.Import):
+            found += [f"{name}: import {a.name}" for a in node.names
+                      if a.name in SPAWNING_MODULES | {"multiprocessing.context",
+                                                       "multiprocessing.forkserver"}]
+        elif (isinstance(node, ast.Attribute) and node.attr in SPAWNING and isinstance(node.value, ast.Name)
+              and node.value.id in {"os", "multiprocessing", "subprocess"}):
+            found.append(f"{name}: {node.value.id}.{node.attr}")
+        elif isinstance(node, ast.Constant) and node.value == "PYTHONSAFEPATH":
+            found.append(f"{name}: PYTHONSAFEPATH")
     assert found == []
-    assert "safe_children" in {n.id for n in ast.walk(ast.parse(Path(__import__("inspect").getsourcefile(
-        OdmsGroup)).read_text())) if isinstance(n, ast.Name)}
+    main = ast.parse(inspect.getsource(OdmsGroup.main).strip().replace("\n    ", "\n"))
+    assert "safe_children" in {n.func.id for n in ast.walk(main)
+                               if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)}

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
+from owner_ast import imported, nodes_outside
 
 from odms_data import pickles
 from odms_data.errors import InputError
@@ -233,18 +234,10 @@ UNTRUSTED_READS = ("pickle", "pickletools", "marshal", "shelve", "dill", "cloudp
 
 def test_no_module_but_pickles_reads_a_pickle_or_checkpoint():
     """pickle and its kin are imported, and torch.load / np.load called, only in odms_data/pickles.py."""
-    import odms_data
-
-    root = Path(odms_data.__file__).parent
     found = []
-    for path in sorted(root.rglob("*.py")):
-        if path == root / "pickles.py":
-            continue
-        for node in ast.walk(ast.parse(path.read_text())):
-            names = [a.name for a in node.names] if isinstance(node, ast.Import) else \
-                [node.module or ""] if isinstance(node, ast.ImportFrom) else []
-            found += [f"{path.name}: import {n}" for n in names if n.split(".")[0] in UNTRUSTED_READS]
-            if (isinstance(node, ast.Attribute) and node.attr in ("load", "load_state_dict_from_url")
-                    and isinstance(node.value, ast.Name) and node.value.id in ("torch", "np", "numpy")):
-                found.append(f"{path.name}: {node.value.id}.{node.attr}")
+    for name, node in nodes_outside("pickles.py"):
+        found += [f"{name}: import {n}" for n in imported(node) if n.split(".")[0] in UNTRUSTED_READS]
+        if (isinstance(node, ast.Attribute) and node.attr in ("load", "load_state_dict_from_url")
+                and isinstance(node.value, ast.Name) and node.value.id in ("torch", "np", "numpy")):
+            found.append(f"{name}: {node.value.id}.{node.attr}")
     assert found == []

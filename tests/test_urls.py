@@ -9,8 +9,8 @@ import sys
 from pathlib import Path
 
 import pytest
+from owner_ast import imported, nodes_outside
 
-import odms_data
 from odms_data.simulate.generate_store import generate
 from odms_data.simulate.params import GeneratorParams
 
@@ -74,18 +74,12 @@ FSSPEC_PACKAGES = ("fsspec", "s3fs", "gcsfs", "adlfs")
 def test_no_module_but_urls_opens_a_url_or_decides_a_scheme():
     """fsspec and its filesystems are imported, and a path tested for a scheme ('://' in a
     comparison or a startswith), only in odms_data/urls.py."""
-    root = Path(odms_data.__file__).parent
     found = []
-    for path in sorted(root.rglob("*.py")):
-        if path == root / "urls.py":
-            continue
-        for node in ast.walk(ast.parse(path.read_text())):
-            names = [a.name for a in node.names] if isinstance(node, ast.Import) else \
-                [node.module or ""] if isinstance(node, ast.ImportFrom) else []
-            found += [f"{path.name}: import {n}" for n in names if n.split(".")[0] in FSSPEC_PACKAGES]
-            starts = isinstance(node, ast.Call) and getattr(node.func, "attr", "") == "startswith"
-            tested = node.comparators + [node.left] if isinstance(node, ast.Compare) else \
-                node.args if starts else []
-            found += [f"{path.name}:{node.lineno}: {c.value!r}" for c in tested
-                      if isinstance(c, ast.Constant) and isinstance(c.value, str) and "://" in c.value]
+    for name, node in nodes_outside("urls.py"):
+        found += [f"{name}: import {n}" for n in imported(node) if n.split(".")[0] in FSSPEC_PACKAGES]
+        starts = isinstance(node, ast.Call) and getattr(node.func, "attr", "") == "startswith"
+        tested = [*node.comparators, node.left] if isinstance(node, ast.Compare) else \
+            node.args if starts else []
+        found += [f"{name}: {c.value!r}" for c in tested
+                  if isinstance(c, ast.Constant) and isinstance(c.value, str) and "://" in c.value]
     assert found == []
