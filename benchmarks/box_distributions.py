@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import ks_2samp
 
-from odms_data.importers.odmd_pickle import load_pickle
+from odms_data.pickles import load_pickle
 from odms_data.simulate.box_examples import BOX_PRESETS, sample_box_examples
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))

@@ -33,7 +33,7 @@ from odms_data.evaluation.ground_truth import data_locations, find_stores, load_
 from odms_data.evaluation.predictions import read_predictions, write_predictions
 from odms_data.evaluation.scoring import score
 from odms_data.evaluation.vosde import solve, vosde
-from odms_data.protocol import observation_columns, split_order
+from odms_data.protocol import observation_indices, split_order
 from odms_data.store.masks import mask_stats
 from odms_data.store.reader import open_store
 
@@ -69,7 +69,7 @@ def vosde_decoding_masks(path: Path, sample: int) -> tuple[float, int, float]:
         est = []
         for i in rows:
             ex = s.example(int(i))
-            cols = observation_columns(ex.n, 10)
+            cols = observation_indices(ex.n, 10)
             areas = np.array([mask_stats(m)[1] for m in ex.masks[cols]], np.float64)
             d1, bad = solve(np.sqrt(areas)[None], (ex.z[cols] - ex.z[0])[None])
             est.append(0.0 if bad[0] else d1[0])

@@ -52,6 +52,17 @@ def write_recording(root: Path, n: int) -> tuple[Path, Path]:
     return masks, root / "positions.csv"
 
 
+def old_code(revision: str, into: Path) -> Path:
+    """The package (and what it reads at run time) at git `revision`, extracted into `into`/old."""
+    old = into / "old"
+    old.mkdir()
+    tracked = ["odms_data", "splits", "schemas", "leaderboard", "setup.cfg"]
+    archive = subprocess.run(["git", "archive", revision, *tracked], cwd=REPO, capture_output=True,
+                             check=True).stdout
+    subprocess.run(["tar", "-x", "-C", str(old)], input=archive, check=True)
+    return old
+
+
 def children_cpu() -> float:
     r = resource.getrusage(resource.RUSAGE_CHILDREN)
     return r.ru_utime + r.ru_stime
@@ -128,12 +139,7 @@ def main() -> None:
     a = ap.parse_args()
     tmp = Path(tempfile.mkdtemp())
     try:
-        old = tmp / "old"
-        old.mkdir()
-        tracked = ["odms_data", "splits", "schemas", "leaderboard", "setup.cfg"]
-        archive = subprocess.run(["git", "archive", a.old, *tracked], cwd=REPO, capture_output=True,
-                                 check=True).stdout
-        subprocess.run(["tar", "-x", "-C", str(old)], input=archive, check=True)
+        old = old_code(a.old, tmp)
         masks, csv = write_recording(tmp / "rec", a.frames)
         runs: dict[str, list[tuple[float, float]]] = {"old": [], "new": []}
         for _ in range(a.repeats):

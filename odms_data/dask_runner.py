@@ -22,6 +22,7 @@ from ._version import __version__
 from .errors import InputError, StoreError
 from .extras import optional
 from .parallel import ordered_map
+from .urls import is_transient
 
 Task = TypeVar("Task")
 Result = TypeVar("Result")
@@ -67,7 +68,7 @@ def check_workers(client, address: str, path: str) -> None:
                 f"scheduler {address}: worker {worker} runs {there['versions']}, this process "
                 f"{here['versions']}; install the same versions on the workers"
             )
-        if path.startswith("memory://") and there["pid"] != here["pid"]:
+        if is_transient(path) and there["pid"] != here["pid"]:
             raise InputError(
                 f"{path}: a memory:// store lives in this process, but worker {worker} of {address} is "
                 "another process; write to file:// or s3://, or use an in-process (threads) cluster"

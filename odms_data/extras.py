@@ -14,7 +14,8 @@ EXTRAS = {  # top-level module -> the extra that installs it
     "jax": "jax", "grain": "jax", "optax": "jax", "absl": "jax",
     "pyarrow": "hub",
     "matplotlib": "plot",
-    "dask": "dask", "distributed": "dask",
+    "dask": "dask", "distributed": "dask", "fsspec": "dask",
+    "s3fs": "s3", "gcsfs": "gcs", "adlfs": "azure",
 }
 
 

@@ -33,6 +33,7 @@ from pathlib import Path
 
 from .errors import InputError, OdmsError, OutputExistsError, OutputLockedError, WriteError
 from .interrupts import uninterrupted
+from .urls import refuse_url
 
 DISK_FULL = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})
 NAME_MAX = 255  # bytes of one file name on Linux, macOS and Windows file systems alike
@@ -86,7 +87,9 @@ def check_replaceable(
     """Refuse an output path that exists (unless `overwrite`), or that `kind` says odms-data does
     not replace, or whose name does not end with one of `suffixes` (when given: a CSV named
     x.zarr would pass for a store). `option`, the name of the input that gave the path, starts the
-    message and is the error's `option` (errors.OdmsError)."""
+    message and is the error's `option` (errors.OdmsError). A URL is refused: what is checked here
+    is written locally."""
+    refuse_url(path, f"this {kind.noun}")
     p = Path(path)
 
     def foreign() -> str | None:
@@ -266,6 +269,7 @@ class Partial:
     folder, and holds it under its own name when it is a file."""
 
     def __init__(self, path: str | os.PathLike, folder: bool, kind: Kind = FILE) -> None:
+        refuse_url(path, f"this {kind.noun}")
         self.target, self.kind, self.is_folder = Path(path), kind, folder
         self.folder = sibling(path, ".partial")
         self.path = self.folder if folder else self.folder / self.target.name

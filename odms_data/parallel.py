@@ -14,11 +14,17 @@ caller itself: forking a process that runs JAX, TensorFlow or zarr threads is un
 server is shared by the whole process: the first pool (ours or anyone's) starts it with its
 preloaded modules; a worker forked from one that has not loaded ours loads them itself, as a
 spawned one does. A forked worker takes the caller's working folder, sys.path and main module as
-a spawned one does, but the environment variables the fork server started with. The fork server
-we start imports with the caller's sys.path (`_start_fork_server`), so that the modules it preloads
-are the caller's copies. The fork server and workers ignore SIGINT: Ctrl-C reaches the whole process
-group, and the caller alone stops the work and says so in one line (the command line's interrupt
-handling). Where there is no fork server (Windows), workers are spawned.
+a spawned one does, but the environment variables the fork server started with.
+
+Python starts its helper processes (the resource tracker, the fork server, spawned workers) as
+`python -c ...`, which puts the current folder first on their import path: a `multiprocessing.py`
+in the folder a command runs in would run in each of them. `safe_children`, called once where the
+command line starts, makes every child odms-data starts (those above, pool and DataLoader workers,
+Dask's) import from the caller's own path only; no spawn site guards itself.
+
+The fork server and workers ignore SIGINT: Ctrl-C reaches the whole process group, and the caller
+alone stops the work and says so in one line (the command line's interrupt handling).
+Where there is no fork server (Windows), workers are spawned.
 """
 
 from __future__ import annotations
@@ -45,6 +51,7 @@ Result = TypeVar("Result")
 work_lock = threading.Lock()  # held by a worker around work an exit must not cut in two
 WORK_PER_WORKER_S = 1.0  # the least work, in CPU-seconds, a worker is started for (workers_for)
 WARM_START = "odms_data.simulate.warm_start"  # what the fork server imports, by name: no import edge
+WorkerPool = ProcessPoolExecutor  # what worker_pool returns, for the callers' type hints
 
 
 def cores() -> int:
@@ -80,13 +87,19 @@ def _context() -> multiprocessing.context.BaseContext:
     return context
 
 
+def safe_children() -> None:
+    """Make every child process this process starts import from this process's own sys.path, never
+    from the folder it runs in: PYTHONSAFEPATH keeps `python -c` from putting the current folder
+    first, PYTHONPATH gives this process's path (Python 3.11's fork server ignores the sys.path it is
+    sent, so run from a clone of odms-data it preloaded the clone's odms_data where this process had
+    imported the installed one). Called once, where the command line starts: a library leaves its
+    caller's environment alone."""
+    path = [os.getcwd() if p == "" else p for p in sys.path]
+    os.environ.update(PYTHONSAFEPATH="1", PYTHONPATH=os.pathsep.join(path))
+
+
 def _start_fork_server() -> None:
-    """Start the fork server, if not yet, importing from this process's sys.path. multiprocessing
-    starts it as `python -c`, which puts the current folder first on its path and (Python 3.11)
-    ignores the sys.path it is sent: run from a clone of odms-data, it preloaded the clone's
-    odms_data where this process had imported the installed one, and workers forked from it ran
-    that other code. PYTHONSAFEPATH drops the current folder, PYTHONPATH gives this process's path;
-    both are set only while the server starts (it keeps them in its environment).
+    """Start the fork server, if not yet.
 
     SIGINT is blocked while the server is started, so that the server starts with it blocked until
     it ignores it (after its preloading): a Ctrl-C while it loaded the kernels printed its traceback
@@ -95,19 +108,9 @@ def _start_fork_server() -> None:
     resource tracker is started the same way. A first process that does nothing waits for the
     loading: a pool's worker whose start a Ctrl-C cut short failed, once forked, on its pool's
     semaphores, which the stopped caller had removed."""
-    path = [os.getcwd() if p == "" else p for p in sys.path]
-    saved = {k: os.environ.get(k) for k in ("PYTHONSAFEPATH", "PYTHONPATH")}
-    os.environ.update(PYTHONSAFEPATH="1", PYTHONPATH=os.pathsep.join(path))
     multiprocessing.resource_tracker.ensure_running()  # first: its start unblocks SIGINT when done
     with held({signal.SIGINT}):  # left last: a pending Ctrl-C is raised there
-        try:
-            multiprocessing.forkserver.ensure_running()
-        finally:
-            for k, v in saved.items():
-                if v is None:
-                    os.environ.pop(k, None)
-                else:
-                    os.environ[k] = v
+        multiprocessing.forkserver.ensure_running()
     ready = multiprocessing.get_context("forkserver").Process(target=_nothing, name="fork-server-ready")
     ready.start()
     ready.join()

@@ -186,13 +186,6 @@ def observation_indices(n: int, n_obs: int) -> np.ndarray:
     return evenly_spaced(0, n - 1, n_obs)
 
 
-def observation_columns(n: int, n_obs: int) -> np.ndarray:
-    """Which of n observations VOS-DE uses: all when n <= n_obs, else n_obs evenly spaced."""
-    if n <= n_obs:
-        return np.arange(n)
-    return evenly_spaced(0, n - 1, n_obs)
-
-
 def protocol_windows(n_frames: int, lengths: Iterable[int], n_obs: int) -> list[tuple[int, int, np.ndarray]]:
     """(length, start, frame offsets) of every window of the robot protocol over n_frames frames:
     each window of `length` consecutive frames contributes n_obs evenly spaced frames."""

@@ -16,14 +16,15 @@ PACKAGE = Path(odms_data.__file__).resolve().parent
 # the rank of each top-level module and folder; a module may import lower ranks and its own folder
 LAYERS = {
     "_version": 0, "errors": 0,
-    "interrupts": 1, "user_cache": 1,
-    "safe_json": 2, "protocol": 2, "extras": 2, "resources": 2, "paths": 2, "shown_text": 2, "parallel": 2,
-    "outputs": 2, "dask_runner": 2.5,  # beside parallel.py, whose ordered map it uses
-    "store": 3,
-    "simulate": 4, "importers": 4, "evaluation": 4, "publish": 4,
-    "loaders": 5,
-    "network": 6,
-    "cli": 7,
+    "interrupts": 1, "extras": 1, "user_cache": 1,
+    "safe_json": 2, "protocol": 2, "resources": 2, "paths": 2, "shown_text": 2, "parallel": 2, "pickles": 2,
+    "urls": 2, "dask_runner": 2.5,  # beside parallel.py, whose ordered map it uses
+    "outputs": 3,
+    "store": 4,
+    "simulate": 5, "importers": 5, "evaluation": 5, "publish": 5,
+    "loaders": 6,
+    "network": 7,
+    "cli": 8,
 }
 HEAVY = ("cv2", "pandas", "zarr", "h5py", "jsonschema", "matplotlib", "PIL", "torch", "tensorflow", "jax",
          "grain", "dask")

@@ -264,3 +264,80 @@ def test_a_ctrl_c_as_the_fork_server_starts_stops_the_caller(tmp_path):
                        capture_output=True, text=True, timeout=120)
     assert r.stdout.strip() == "stopped", r.stdout + r.stderr
     assert "Traceback" not in r.stderr, r.stderr  # the server, loading the kernels, did not get it
+
+
+MARKER_MODULE = """
+import os, sys
+here = os.path.dirname(os.path.abspath(__file__))
+open(os.path.join(here, "RAN"), "a").write(f"{os.getpid()} {sys.argv[:2]}\\n")
+del sys.modules[__name__]
+sys.path = [p for p in sys.path if os.path.abspath(p or ".") != here]
+import multiprocessing  # the real one, so that the command goes on and only the marker tells
+"""
+
+
+def test_no_child_process_imports_from_the_folder_a_command_runs_in(tmp_path):
+    """A `multiprocessing.py` in the working folder runs in no process odms-data starts: the
+    resource tracker, the fork server, pool workers (generate, import) and DataLoader workers
+    (train, predict)."""
+    from tests.importers.test_import_recording import write_recording
+
+    rec = write_recording(tmp_path / "rec")
+    work = tmp_path / "work"
+    work.mkdir()
+    (work / "multiprocessing.py").write_text(MARKER_MODULE)
+    command = str(Path(sys.executable).with_name("odms-data"))
+    small = ["--param", "image_size=[48,64]"]
+    runs = [
+        ["generate", "-n", "12", "--examples-per-shard", "4", "--workers", "2",
+         *small, "-o", "val.zarr"],
+        ["import", "recording", str(rec["masks"]), "--positions", str(rec["csv"]), "--workers", "2",
+         "-o", "cup.zarr"],
+        ["train", "--model", "dbox", "-o", "dbox", "--val", "val.zarr", "--iterations", "2", "--batch-size",
+         "4", "--val-every", "2", "--seed", "3"],  # its default workers
+        ["train", "--model", "odn-d", "-o", "odn", "--val", "val.zarr", "--iterations", "2", "--batch-size",
+         "2", "--val-every", "2", "--workers", "2", "--seed", "3"],
+        ["predict", "odn", "--data", "val.zarr", "--workers", "2", "-o", "odn.csv"],
+    ]
+    for args in runs:
+        r = subprocess.run([command, *args], cwd=work, capture_output=True, text=True, timeout=600)
+        assert r.returncode == 0, (args, r.stderr)
+        assert not (work / "RAN").exists(), (args, (work / "RAN").read_text())
+
+
+SPAWNING = {  # names that start a process; only parallel.py and the command line's start may use them
+    "ProcessPoolExecutor", "Pool", "Process", "get_context", "set_start_method", "ensure_running",
+    "fork", "forkpty", "posix_spawn", "spawnv", "spawnve", "execv", "execve", "Popen", "run", "call",
+    "check_call", "check_output", "system", "PYTHONSAFEPATH",
+}
+SPAWNING_MODULES = {"multiprocessing", "subprocess", "concurrent.futures"}
+
+
+def test_only_parallel_starts_child_processes_and_the_command_line_makes_them_safe():
+    """No module but parallel.py imports a process-starting API (or names PYTHONSAFEPATH), and the
+    command line calls parallel.safe_children before running any command."""
+    import ast
+    import inspect
+
+    from owner_ast import nodes_outside
+
+    from odms_data.cli import OdmsGroup
+
+    found = []
+    for name, node in nodes_outside("parallel.py"):
+        if isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] in {
+                m.split(".")[0] for m in SPAWNING_MODULES} | {"os"}:
+            found += [f"{name}: from {node.module} import {a.name}" for a in node.names if a.name in SPAWNING]
+        elif isinstance(node, ast.Import):
+            found += [f"{name}: import {a.name}" for a in node.names
+                      if a.name in SPAWNING_MODULES | {"multiprocessing.context",
+                                                       "multiprocessing.forkserver"}]
+        elif (isinstance(node, ast.Attribute) and node.attr in SPAWNING and isinstance(node.value, ast.Name)
+              and node.value.id in {"os", "multiprocessing", "subprocess"}):
+            found.append(f"{name}: {node.value.id}.{node.attr}")
+        elif isinstance(node, ast.Constant) and node.value == "PYTHONSAFEPATH":
+            found.append(f"{name}: PYTHONSAFEPATH")
+    assert found == []
+    main = ast.parse(inspect.getsource(OdmsGroup.main).strip().replace("\n    ", "\n"))
+    assert "safe_children" in {n.func.id for n in ast.walk(main)
+                               if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)}

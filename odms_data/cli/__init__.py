@@ -23,7 +23,9 @@ import click
 from .._version import __version__
 from ..errors import Interrupted, OdmsError
 from ..interrupts import stops_interrupt
+from ..parallel import safe_children
 from ..shown_text import for_terminal
+from ..urls import refuse_transient
 
 
 def one_line(message: object) -> str:
@@ -105,6 +107,7 @@ class OdmsGroup(click.Group):
         if not standalone_mode:
             return super().main(args, prog_name, complete_var, standalone_mode, **extra)
         _printable_anywhere()
+        safe_children()
         with stops_interrupt():
             try:
                 code = super().main(args, prog_name, complete_var, False, **extra)
@@ -120,8 +123,14 @@ class OdmsGroup(click.Group):
                 code = 128 + signum
         sys.exit(code if isinstance(code, int) else 0)
 
+    def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
+        ctx.meta["arguments"] = list(args)  # every argument of the command, for `invoke`
+        return super().parse_args(ctx, args)
+
     def invoke(self, ctx: click.Context):
         try:
+            for value in ctx.meta["arguments"]:
+                refuse_transient(value.split("=", 1)[-1] if value.startswith("--") else value)
             return super().invoke(ctx)
         except (click.exceptions.Exit, click.ClickException, click.Abort):
             raise

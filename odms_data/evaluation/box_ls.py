@@ -12,8 +12,9 @@ With more than N observations, N evenly spaced ones are used, as VOS-DE uses the
 
 As in the authors' code: a box of zero width is a missing detection and takes the box of the
 nearest observation that has one (the farther one on a tie); an example whose A^T A is singular
-(e.g. no detection at all) is unsolvable and predicts 0; one solved with A^T A's condition number
-past 1 / eps (e.g. one detection in ten) keeps the authors' answer and is counted ill-conditioned.
+(e.g. no detection at all) is unsolvable and predicts 0, and so is one whose camera never moved; one
+solved with A^T A's condition number past 1 / eps (e.g. one detection in ten) keeps the authors'
+answer and is counted ill-conditioned.
 
 `odmd_conversion=True` reproduces how ODMD's converted ODMS sets read the masks (docs/ODMD.md):
 observations are ordered far to near and chosen by truncating `linspace` in that order; a robot
@@ -30,7 +31,7 @@ from ..errors import InputError
 from ..store.boxes import chosen_frames, example_boxes
 from ..store.reader import Store
 from .baseline_result import BaselineResult
-from .least_squares import first_unknown
+from .least_squares import first_unknown, unmoved
 
 DEFAULT_N_OBS = 10
 
@@ -58,7 +59,9 @@ def solve(boxes: np.ndarray, move: np.ndarray) -> tuple[np.ndarray, np.ndarray, 
     A = np.zeros((E, 2 * k, 3))
     A[:, :k, 0], A[:, k:, 0] = w, h
     A[:, :k, 1], A[:, k:, 2] = 1.0, 1.0
-    return first_unknown(A, np.concatenate([w * move, h * move], axis=1))
+    d1, bad, ill = first_unknown(A, np.concatenate([w * move, h * move], axis=1))
+    bad |= unmoved(move)
+    return np.where(bad, 0.0, d1), bad, ill & ~bad
 
 
 def box_ls(store: Store, n_obs: int = DEFAULT_N_OBS, odmd_conversion: bool = False) -> BaselineResult:

@@ -21,11 +21,11 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DigestMismatchError, InputError, StoreError
-from ..store.backends import is_url
 from ..store.digest import check_recorded_digest
 from ..store.format import format_of_name
 from ..store.manifests import check_against_manifest, load_manifest, split_names
 from ..store.reader import open_store
+from ..urls import is_url
 from ..user_cache import SHOWN, cache_home
 
 ENV_VAR = "ODMS_DATA"

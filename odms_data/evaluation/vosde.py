@@ -8,12 +8,14 @@ With dz_i = z_i - z_1, least squares over the observations of
 gives x0 = z_obj - z_1 and the estimate d1 = -x0. a_i is the area of the mask's largest
 8-connected region (0 for an empty mask), read from the store's `largest_area`, so no mask is
 decoded. With more than N observations, N evenly spaced ones are used:
-`numpy.linspace(0, n - 1, N)` truncated to integers; with n <= N, all n.
+`numpy.linspace(0, n - 1, N)` truncated to integers; N beyond an example's n is refused, as every
+command refuses it (protocol.observation_indices), where the authors' code used all n.
 
 Degenerate inputs, as the authors' released code treats them: the normal equations are solved
 with LAPACK (the same factorisation as the released code's matrix inverse); an example whose
 A^T A is singular (every used mask with the same area, e.g. all empty) is *unsolvable* and
-predicts 0, which scores as 100% error. Examples with empty masks among the used observations
+predicts 0, which scores as 100% error; so is one whose camera never moved (its solution, 0 m,
+was counted as solved). Examples with empty masks among the used observations
 are solved as they are (an empty mask has area 0) and counted.
 
 On the official splits this reproduces the released code's figures for n = 10 (and the
@@ -27,10 +29,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from ..protocol import observation_columns
+from ..protocol import observation_indices
 from ..store.reader import Store
 from .baseline_result import BaselineResult
-from .least_squares import first_unknown
+from .least_squares import first_unknown, unmoved
 
 DEFAULT_N_OBS = 10
 
@@ -39,7 +41,8 @@ def solve(sqrt_area: np.ndarray, dz: np.ndarray) -> tuple[np.ndarray, np.ndarray
     """Batched VOS-DE on (E, k) arrays: (d1 estimates, unsolvable, ill-conditioned)."""
     A = np.stack([sqrt_area, np.ones_like(sqrt_area)], axis=-1)  # (E, k, 2)
     x0, bad, ill = first_unknown(A, dz * sqrt_area)
-    return 0.0 - x0, bad, ill  # not -x0: an unsolvable row stays 0.0, not -0.0
+    bad |= unmoved(dz)
+    return 0.0 - np.where(bad, 0.0, x0), bad, ill & ~bad  # not -x0: an unsolvable row stays 0.0, not -0.0
 
 
 def vosde(store: Store, n_obs: int = DEFAULT_N_OBS) -> BaselineResult:
@@ -53,7 +56,10 @@ def vosde(store: Store, n_obs: int = DEFAULT_N_OBS) -> BaselineResult:
     d1, unsolvable, empty, ill = np.zeros(E), np.zeros(E, bool), np.zeros(E, bool), np.zeros(E, bool)
     for n in np.unique(counts):
         rows = np.flatnonzero(counts == n)
-        frames = fi[rows][:, observation_columns(int(n), n_obs)]
+        try:
+            frames = fi[rows][:, observation_indices(int(n), n_obs)]
+        except InputError as e:  # as the loaders say it
+            raise InputError(f"{store.path}: example {store.example_ids[rows[0]]}: {e}") from None
         sqrt_area = np.sqrt(largest[frames].astype(np.float64))
         dz = z[frames] - z[fi[rows, 0]][:, None]
         d1[rows], unsolvable[rows], ill[rows] = solve(sqrt_area, dz)

@@ -2,7 +2,7 @@
 
 An importer reads its source (release.py: the official ODMS release; recording.py: a user's
 own recording; synthia.py: SYNTHIA-SEQS video sequences, with its rules in synthia_protocol.py;
-odmd.py: ODMD's pickled sets of boxes, read by odmd_pickle.py) into a `Plan` of its kind of store
+odmd.py: ODMD's pickled sets of boxes, read by pickles.py) into a `Plan` of its kind of store
 (plan.py: a `MaskPlan` or a `BoxPlan`). Each is an `Importer` (builder.py): a plan, a way to drop
 the sources of bad frames, a check before the commit. The base has the store builder
 (store/build.py) write the plan, retries without the dropped sources and answers with an

@@ -6,7 +6,7 @@ far to near, `bb_3D.camera_movement` (P - 1, 3, E) from each position to the las
 `bb.image_dim` [H, W]. Example e becomes the store's example `<split>/<e:05d>`: its P frames in
 ODMD's order, box and depth per frame (NaN where ODMD writes 0: the robot sets' inner frames),
 the movement (0 at the last frame) and the label, the depth at the last frame. The pickles are
-read by odmd_pickle.py, which runs none of their code; every shape is checked here before
+read by pickles.py, which runs none of their code; every shape is checked here before
 anything is allocated from it. Each set is an `Importer` (builder.py) of a store of boxes.
 """
 
@@ -20,12 +20,12 @@ import numpy as np
 
 from ..errors import InputError
 from ..paths import inside
+from ..pickles import load_pickle
 from ..protocol import BENCHMARKS, SPLIT_FAMILIES
 from ..store.box_store import BoxRows
 from ..store.format import StoreAttrs, store_path
 from ..store.manifests import check_against_manifest, load_manifest, split_names
 from .builder import Importer, Progress
-from .odmd_pickle import load_pickle
 from .plan import BoxPlan
 from .result import ImportResult
 

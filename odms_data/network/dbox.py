@@ -27,10 +27,10 @@ from torch import nn
 
 from ..errors import InputError
 from ..loaders.box_transform import DBOX_OBS, FEATURES
+from ..pickles import load_checkpoint
 
 HIDDEN = 128
 FCS = (256,) * 6
-MAX_CHECKPOINT_BYTES = 64 << 20  # DBox's own is 2.4 MB
 
 
 class DBox(nn.Module):
@@ -90,18 +90,9 @@ def expected_shapes(n_obs: int = DBOX_OBS) -> dict[str, tuple[int, ...]]:
 
 def load_pretrained(path: str | os.PathLike[str], n_obs: int = DBOX_OBS) -> DBox:
     """DBox with the weights of the state dict at `path` (the authors' DBox_pretrained_paper.pt, or
-    one saved from DBox.state_dict()): read with weights_only=True, its size bounded first, its
-    names, shapes and dtypes checked against DBox's before the network is built."""
-    try:
-        size = os.path.getsize(path)
-    except OSError as e:
-        raise InputError(f"{path}: cannot read the DBox checkpoint ({e.strerror})") from None
-    if size > MAX_CHECKPOINT_BYTES:
-        raise InputError(f"{path}: {size} bytes, more than a DBox checkpoint's {MAX_CHECKPOINT_BYTES}")
-    try:
-        state = torch.load(path, map_location="cpu", weights_only=True)
-    except Exception as e:  # torch raises pickle, zip and runtime errors alike for a bad file
-        raise InputError(f"{path}: not a PyTorch state dict of tensors ({type(e).__name__})") from None
+    one saved from DBox.state_dict()): read within pickles.load_checkpoint's bounds, its names,
+    shapes and dtypes checked against DBox's before the network is built."""
+    state = load_checkpoint(path)
     if not isinstance(state, dict) or not all(isinstance(v, torch.Tensor) for v in state.values()):
         raise InputError(f"{path}: not a state dict of tensors")
     want = expected_shapes(n_obs)

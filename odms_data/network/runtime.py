@@ -10,6 +10,7 @@ import torch
 from torch.utils.data import DataLoader, Dataset
 
 from ..errors import InputError, OdmsError
+from ..pickles import load_checkpoint
 from .checkpoint import Checkpoint
 from .models import Batch
 
@@ -54,9 +55,5 @@ def eval_batches(dataset: Dataset, workers: int, pin: bool) -> Iterator[Batch]:
 
 def read_checkpoint(path: Path) -> Checkpoint:
     """A checkpoint, on the CPU (the random states must be there; load_state_dict moves weights
-    and Adam's state to their module's device)."""
-    try:
-        saved = torch.load(path, map_location="cpu", weights_only=True)
-    except Exception as e:  # a truncated or foreign file: torch raises many kinds
-        raise InputError(f"{path}: not a readable checkpoint ({type(e).__name__}: {e})") from None
-    return Checkpoint.from_json(saved, str(path))
+    and Adam's state to their module's device), read within pickles.load_checkpoint's bounds."""
+    return Checkpoint.from_json(load_checkpoint(path), str(path))

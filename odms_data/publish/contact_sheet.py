@@ -64,13 +64,26 @@ def contact_sheet(example: Example, columns: int = COLUMNS, crop: bool = False) 
         mask = Image.fromarray(masks[i].astype(np.uint8) * 255)
         thumb = mask.resize((tw, th), Image.Resampling.NEAREST if W < tw else Image.Resampling.BILINEAR)
         sheet.paste(thumb, (x, y))
+        mark = ""
         if example.boxes is not None and example.boxes[i, 2] != 0:  # width 0: a missed detection
-            xc, yc, w, h = example.boxes[i]
-            draw.rectangle([x + (xc - w / 2) * tw, y + (yc - h / 2) * th, x + (xc + w / 2) * tw,
-                            y + (yc + h / 2) * th], outline=255)
+            mark = _draw_box(draw, example.boxes[i], x, y, tw, th)
         depth = "depth ?" if math.isnan(example.depth[i]) else f"depth {example.depth[i]:.3f} m"
-        draw.text((x + 2, y + th + 4), f"#{i + 1}  z {example.z[i]:.4f} m  {depth}", fill=255)
+        draw.text((x + 2, y + th + 4), f"#{i + 1}  z {example.z[i]:.4f} m  {depth}{mark}", fill=255)
     return sheet
+
+
+def _draw_box(draw: ImageDraw.ImageDraw, box: np.ndarray, x: int, y: int, tw: int, th: int) -> str:
+    """Outline `box` (centre x, y, width, height, as fractions of the image) in the thumbnail at
+    (x, y); returns what marks it in the caption. A negative width or height (ODMD's perturbed
+    detections have them) is drawn as its mirror, in grey; corners far outside are clipped."""
+    xc, yc, w, h = (float(v) for v in box)
+    flipped = w < 0 or h < 0
+    lo, hi = -1.0, 2.0  # in image fractions: enough to show that a box reaches past the edge
+    left, right = sorted(min(hi, max(lo, v)) for v in (xc - w / 2, xc + w / 2))
+    top, bottom = sorted(min(hi, max(lo, v)) for v in (yc - h / 2, yc + h / 2))
+    draw.rectangle([x + left * tw, y + top * th, x + right * tw, y + bottom * th],
+                   outline=128 if flipped else 255)
+    return "  (negative size)" if flipped else ""
 
 
 def image_format(path: str | os.PathLike, option: str = "output") -> str:

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..protocol import evenly_spaced, observation_columns
+from ..protocol import evenly_spaced, observation_indices
 from .masks import _opencv
 from .reader import Store
 
@@ -102,17 +102,24 @@ def example_frames(store: Store, i: int, n_obs: int, odmd_conversion: bool) -> n
     if store.kind == "boxes":  # in ODMD's order already, far to near
         if odmd_conversion:
             raise InputError(f"{store.path}: ODMD's conversion reads stores of masks; this one holds boxes")
-        return row[observation_columns(len(row), n_obs)]
+        return row[observation_indices(len(row), n_obs)]
     if not odmd_conversion:
-        return row[observation_columns(len(row), n_obs)]
+        return row[observation_indices(len(row), n_obs)]
     far_first = _window(row, store.z)[::-1]
     n = len(far_first)
     return far_first if n <= n_obs else far_first[evenly_spaced(0, n - 1, n_obs)]
 
 
 def chosen_frames(store: Store, n_obs: int, odmd_conversion: bool) -> list[np.ndarray]:
-    """`example_frames` of every example of `store`."""
-    return [example_frames(store, i, n_obs, odmd_conversion) for i in range(store.n_examples)]
+    """`example_frames` of every example of `store`; an n_obs beyond an example's frames is refused
+    naming the store and the example, as the loaders do."""
+    chosen = []
+    for i in range(store.n_examples):
+        try:
+            chosen.append(example_frames(store, i, n_obs, odmd_conversion))
+        except InputError as e:
+            raise InputError(f"{store.path}: example {store.example_ids[i]}: {e}") from None
+    return chosen
 
 
 def example_boxes(store: Store, rows: np.ndarray | list[int], n_obs: int = 10,

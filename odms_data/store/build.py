@@ -20,7 +20,6 @@ import sys
 import warnings
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Generator, Iterable, Iterator
-from concurrent.futures import ProcessPoolExecutor
 from contextlib import closing, contextmanager
 from dataclasses import dataclass, field
 from typing import Any, Self, TypeVar
@@ -29,7 +28,7 @@ import numpy as np
 
 from ..errors import InputError, StoreError
 from ..outputs import MARKER
-from ..parallel import cores, end_pool, pool_map, worker_pool, workers_for
+from ..parallel import WorkerPool, cores, end_pool, pool_map, worker_pool, workers_for
 from .backends import MaskSink
 from .digest import StoreDigest, content_digest
 from .format import StoreAttrs, arrays_of
@@ -190,7 +189,7 @@ class Workers:
                  quiet: bool = False) -> None:
         self.n = workers if workers is not None else cores()
         self.scheduler, self.quiet = scheduler, quiet
-        self.pool: ProcessPoolExecutor | None = None
+        self.pool: WorkerPool | None = None
 
     @classmethod
     def for_work(cls, work_s: float, tasks: int, workers: int | None = None,

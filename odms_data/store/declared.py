@@ -23,7 +23,8 @@ from typing import Any
 
 import numpy as np
 
-from .backends import Backend, is_url, url_filesystem
+from ..urls import is_url, url_filesystem
+from .backends import Backend
 from .backends.hdf5 import DEFLATE
 from .format import arrays_of, kind_of, layout_problems
 

@@ -22,7 +22,8 @@ from .. import safe_json
 from ..errors import InputError, OdmsError, StoreError, StoreExistsError, StoreLockedError
 from ..interrupts import uninterrupted
 from ..outputs import DISK_FULL, Kind, Partial, check_replaceable, output_lock, refuse_existing, write_error
-from .backends import HDF5_MAGIC, Backend, MaskSink, detect_format, is_url, open_backend, url_filesystem
+from ..urls import is_url, url_filesystem
+from .backends import HDF5_MAGIC, Backend, MaskSink, detect_format, open_backend
 from .format import (
     ARRAYS,
     ATTRS_KEY,

@@ -24,7 +24,7 @@ def commands(store: str, out: str) -> dict[str, list[str]]:
     return {
         "info": ["info", "--json", store], "show": ["show", store, "tiny/000001", "-o", f"{out}.png"],
         "convert": ["convert", store, out + (".zarr" if store.endswith(".h5") else ".h5")],
-        "baseline": ["baseline", "vosde", store, "-o", f"{out}.csv"],
+        "baseline": ["baseline", "vosde", store, "--n-obs", "3", "-o", f"{out}.csv"],
         "score": ["score", "p.csv", "--data", store], "export": ["export", store, "-o", f"{out}-hub"],
     }
 

@@ -154,7 +154,8 @@ def test_every_reporting_command_speaks_json_and_shows_progress_in_logs(tmp_path
         "convert": odms("convert", str(store), str(h5), "--json"),
         "info": odms("info", str(h5), "--json"),
         "validate": odms("validate", str(h5), "--json"),
-        "baseline": odms("baseline", "vosde", str(store), "-o", str(tmp_path / "p.csv"), "--json"),
+        "baseline": odms("baseline", "vosde", str(store), "--n-obs", "4", "-o", str(tmp_path / "p.csv"),
+                         "--json"),
         "leaderboard": odms("leaderboard", "--json"),
         "export": odms("export", str(store), "-o", str(tmp_path / "hub"), "--json"),
     }
@@ -176,7 +177,7 @@ def test_a_store_named_without_a_suffix_is_scored(tmp_path):
     """generate writes a Zarr store wherever -o points; score --data must take it as a store."""
     store, preds = tmp_path / "mine", tmp_path / "p.csv"
     assert odms("generate", "-n", "3", "--n-obs", "3", "-o", str(store)).returncode == 0
-    assert odms("baseline", "vosde", str(store), "-o", str(preds)).returncode == 0
+    assert odms("baseline", "vosde", str(store), "--n-obs", "3", "-o", str(preds)).returncode == 0
     r = odms("score", str(preds), "--data", str(store))
     assert r.returncode == 0, r.stderr
     assert "generated" in r.stdout and "3" in r.stdout

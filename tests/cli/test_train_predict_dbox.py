@@ -161,4 +161,8 @@ def test_bad_input(tmp_path, val_store):
     _fails(["predict", "--model", "dbox", "--checkpoint", str(weights), *data], "w.pt", "not DBox's")
     (tmp_path / "junk.pt").write_bytes(b"junk")
     _fails(["predict", "--model", "dbox", "--checkpoint", str(tmp_path / "junk.pt"), *data], "junk.pt")
+    sparse = {k: t.to_sparse() for k, t in DBox().state_dict().items()}  # DBox's names and shapes
+    torch.save(sparse, weights)
+    _fails(["predict", "--model", "dbox", "--checkpoint", str(weights), *data], "w.pt", "refused",
+           "_rebuild_sparse_tensor")  # was exit 3
     assert not out.exists()

@@ -3,6 +3,8 @@ authors' figures on ODMD's own sets (when ODMD's data is on this machine)."""
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 from _stores import SIZE, make_store
@@ -11,7 +13,9 @@ from click.testing import CliRunner
 from odms_data.cli import main
 from odms_data.evaluation.box_ls import box_ls, fill_missing, solve
 from odms_data.evaluation.predictions import read_predictions
+from odms_data.store.box_store import BoxRows, write_box_store
 from odms_data.store.boxes import chosen_frames
+from odms_data.store.format import StoreAttrs
 from odms_data.store.reader import open_store
 
 # Box_LS by the authors' demo on their pickled sets, as their README and the ODMS README print it.
@@ -40,7 +44,7 @@ def test_ideal_boxes_give_the_exact_depth(tmp_path):
     z = [1.0, 1.2, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0]
     path = make_store(tmp_path / "s.zarr", "ideal", [{"z": np.array(z) + 3.0, "masks": ideal(z), "d1": 1.0}])
     with open_store(path) as s:
-        r = box_ls(s)
+        r = box_ls(s, n_obs=8)
     assert r.d1 == pytest.approx([1.0], abs=1e-9)
     assert not r.unsolvable.any() and not r.flagged.any()
 
@@ -53,12 +57,12 @@ def test_missing_detections_take_the_nearest_box_and_none_at_all_is_unsolvable(t
     examples = [{"z": z, "masks": holed, "d1": 1.0}, {"z": z, "masks": [empty] * 5, "d1": 1.0}]
     path = make_store(tmp_path / "s.zarr", "degenerate", examples)
     with open_store(path) as s:
-        r = box_ls(s)
+        r = box_ls(s, n_obs=5)
     assert r.flagged.tolist() == [True, True]
     assert r.unsolvable.tolist() == [False, True]
     assert r.d1[1] == 0.0 and 0.5 < r.d1[0] < 1.5
     out = tmp_path / "p.csv"
-    res = CliRunner().invoke(main, ["baseline", "box-ls", path, "-o", str(out)])
+    res = CliRunner().invoke(main, ["baseline", "box-ls", path, "--n-obs", "5", "-o", str(out)])
     assert res.exit_code == 0, res.output
     assert ("degenerate: 2 examples, 1 unsolvable (predicted 0), 0 ill-conditioned, 2 with a missing "
             "detection") in res.stdout
@@ -106,7 +110,7 @@ def test_odmd_conversion_orders_far_first_and_pairs_movements_as_odmd_does(tmp_p
     path = make_store(tmp_path / "s.zarr", "order", [{"z": z, "masks": ideal(z), "d1": 1.0}])
     with open_store(path) as s:
         assert chosen_frames(s, 10, True)[0].tolist() == [5, 4, 3, 2, 1, 0]
-        assert chosen_frames(s, 10, False)[0].tolist() == [0, 1, 2, 3, 4, 5]
+        assert chosen_frames(s, 6, False)[0].tolist() == [0, 1, 2, 3, 4, 5]
         odmd = box_ls(s, odmd_conversion=True).d1[0]
     widths = np.array([round(60 / zi) for zi in z[::-1]], float)[None, :, None] / SIZE * np.ones(4)
     move = np.array([[z[0] - z[5], z[1] - z[5], z[2] - z[5], z[3] - z[5], z[4] - z[5], 0.0]])
@@ -131,7 +135,7 @@ def test_odmd_conversion_takes_a_robot_window_from_its_far_end(tmp_path):
 
 @pytest.mark.parametrize(("dataset", "name"), sorted(PUBLISHED))
 def test_published_box_ls_on_odmds_own_sets(dataset, name, odmd_data):
-    from odms_data.importers.odmd_pickle import load_pickle
+    from odms_data.pickles import load_pickle
 
     d = load_pickle(odmd_data / dataset / "test" / name)
     bb, move = d["bb"]["bboxes"], d["bb_3D"]["camera_movement"]
@@ -145,3 +149,61 @@ def test_published_box_ls_on_odmds_own_sets(dataset, name, odmd_data):
     truth = bb[-1, 4, :]
     digits = 1 if dataset == "odms_detection" else 2  # as each README prints them
     assert round(100 * float(np.mean(np.abs(pred - truth) / truth)), digits) == PUBLISHED[(dataset, name)]
+
+
+def _box_store(tmp_path, boxes: np.ndarray, move: np.ndarray, split: str = "boxy") -> str:
+    """A store of boxes (E, n) with these boxes and movements, labelled 1 m at the last frame."""
+    E, n = boxes.shape[:2]
+    depth = np.full((E, n), np.nan)
+    depth[:, -1] = 1.0
+    rows = BoxRows(boxes, move, depth, np.ones(E), [f"{split}/{e}" for e in range(E)], ["hand-built"] * E)
+    path = str(tmp_path / f"{split}.zarr")
+    write_box_store(path, rows, StoreAttrs(split=split, domain="odmd", image_size=(480, 640), counts={}))
+    return path
+
+
+def _boxes(E: int, n: int = 10) -> tuple[np.ndarray, np.ndarray]:
+    """Boxes of width c / depth for a camera moving 0.1 m a frame towards the object."""
+    move = np.zeros((E, n, 3))
+    move[:, :, 2] = -0.1 * np.arange(n)[::-1]
+    boxes = np.zeros((E, n, 4))
+    boxes[..., :2] = 0.5
+    boxes[..., 2], boxes[..., 3] = 0.1 / (1.0 - move[..., 2]), 0.08 / (1.0 - move[..., 2])
+    return boxes, move
+
+
+def test_a_camera_that_never_moved_is_unsolvable(tmp_path):
+    """Its least-squares system solved to 0 m and counted as solved."""
+    boxes, move = _boxes(2)
+    move[1] = 0.0  # the camera stays; the detections still change (noise)
+    boxes[1, :, 2] *= np.random.default_rng(0).uniform(0.9, 1.1, 10)
+    with open_store(_box_store(tmp_path, boxes, move)) as s:
+        r = box_ls(s)
+    assert r.unsolvable.tolist() == [False, True] and r.d1[1] == 0.0
+    assert r.d1[0] == pytest.approx(1.0)
+
+
+def test_n_obs_beyond_the_observations_is_refused_as_training_refuses_it(tmp_path):
+    """--n-obs 11 on examples of 10 was reported as n = 11."""
+    path = _box_store(tmp_path, *_boxes(2))
+    r = CliRunner().invoke(main, ["baseline", "box-ls", path, "--n-obs", "11", "-o", str(tmp_path / "p.csv")])
+    assert r.exit_code == 2, r.output
+    assert r.stderr == (f"odms-data: error: {path}: example boxy/0: need 2 <= n_obs <= n, got n_obs=11 "
+                        "for an example of 10 frames\n")
+    assert not (tmp_path / "p.csv").exists()
+
+
+def test_a_box_too_wide_to_square_is_a_counted_unsolvable_example_not_a_warning(tmp_path):
+    """A 1e160-wide box printed NumPy's overflow warning and then blamed 'NaN predictions'."""
+    boxes, move = _boxes(2)
+    boxes[1, 3, 2] = 1e160
+    path = _box_store(tmp_path, boxes, move)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with open_store(path) as s:
+            r = box_ls(s)
+    assert r.unsolvable.tolist() == [False, True] and r.d1[1] == 0.0
+    out = tmp_path / "p.csv"
+    res = CliRunner().invoke(main, ["baseline", "box-ls", path, "-o", str(out)])
+    assert res.exit_code == 0 and "Warning" not in res.stderr and "NaN" not in res.output, res.output
+    assert "boxy: 2 examples, 1 unsolvable (predicted 0)" in res.stdout

@@ -8,9 +8,10 @@ from _stores import make_store
 from click.testing import CliRunner
 
 from odms_data.cli import main
+from odms_data.errors import InputError
 from odms_data.evaluation.predictions import read_predictions
 from odms_data.evaluation.vosde import solve, vosde
-from odms_data.protocol import observation_columns
+from odms_data.protocol import observation_indices
 from odms_data.simulate.generate_store import generate
 from odms_data.simulate.params import preset
 from odms_data.store.manifests import load_manifest
@@ -40,7 +41,7 @@ def test_ideal_squares_give_the_exact_depth(tmp_path):
     z = [1.0, 1.2, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0]  # 60 / z is an integer
     path = make_store(tmp_path / "s.zarr", "ideal", [{"z": z, "areas": ideal(z), "d1": 1.0}])
     with open_store(path) as s:
-        r = vosde(s)
+        r = vosde(s, n_obs=8)
     assert r.d1 == pytest.approx([1.0], abs=1e-12)
     assert not r.unsolvable.any() and not r.flagged.any()
 
@@ -50,7 +51,7 @@ def test_estimate_is_relative_to_the_first_observation(tmp_path):
     areas = ideal(z)
     path = make_store(tmp_path / "s.zarr", "shifted", [{"z": z + 7.0, "areas": areas, "d1": 1.0}])
     with open_store(path) as s:
-        assert vosde(s).d1 == pytest.approx([1.0], abs=1e-12)
+        assert vosde(s, n_obs=5).d1 == pytest.approx([1.0], abs=1e-12)
 
 
 def test_singular_systems_predict_zero_and_are_counted(tmp_path):
@@ -61,12 +62,12 @@ def test_singular_systems_predict_zero_and_are_counted(tmp_path):
     ]
     path = make_store(tmp_path / "s.zarr", "degenerate", examples)
     with open_store(path) as s:
-        r = vosde(s)
+        r = vosde(s, n_obs=3)
     assert r.unsolvable.tolist() == [True, True, False]
     assert r.flagged.tolist() == [True, False, True]
     assert r.d1[:2].tolist() == [0.0, 0.0] and r.d1[2] != 0.0
     out = tmp_path / "p.csv"
-    res = CliRunner().invoke(main, ["baseline", "vosde", path, "-o", str(out)])
+    res = CliRunner().invoke(main, ["baseline", "vosde", path, "--n-obs", "3", "-o", str(out)])
     assert res.exit_code == 0, res.output
     assert ("degenerate: 3 examples, 2 unsolvable (predicted 0), 0 ill-conditioned, 2 with an empty "
             "mask") in res.stdout
@@ -87,10 +88,11 @@ def test_solve_matches_numpy_least_squares():
 
 
 def test_observation_choice_is_linspace_truncated():
-    assert observation_columns(30, 10).tolist() == [0, 3, 6, 9, 12, 16, 19, 22, 25, 29]
-    assert observation_columns(10, 10).tolist() == list(range(10))
-    assert observation_columns(7, 10).tolist() == list(range(7))
-    assert observation_columns(10, 2).tolist() == [0, 9]
+    assert observation_indices(30, 10).tolist() == [0, 3, 6, 9, 12, 16, 19, 22, 25, 29]
+    assert observation_indices(10, 10).tolist() == list(range(10))
+    with pytest.raises(InputError, match="got n_obs=10 for an example of 7 frames"):
+        observation_indices(7, 10)
+    assert observation_indices(10, 2).tolist() == [0, 9]
 
 
 def test_stored_statistics_give_the_same_estimates_as_decoding_masks(tmp_path):
@@ -102,7 +104,7 @@ def test_stored_statistics_give_the_same_estimates_as_decoding_masks(tmp_path):
         for i in range(s.n_examples):
             ex = s.example(i)
             areas = np.array([mask_stats(m)[1] for m in ex.masks], np.float64)
-            cols = observation_columns(ex.n, 5)
+            cols = observation_indices(ex.n, 5)
             d1, _, _ = solve(np.sqrt(areas[cols])[None], (ex.z[cols] - ex.z[0])[None])
             assert fast.d1[i] == pytest.approx(d1[0], rel=1e-12)
 
@@ -170,3 +172,22 @@ def test_official_ground_truth_scores_exactly_zero(official, tmp_path):
     report = json.loads(r.stdout)
     assert all(s["mean_percent_error"] == 0.0 and s["mean_abs_error_m"] == 0.0 for s in report["splits"])
     assert report["all"] == {"val": 0.0, "test": 0.0}
+
+
+def test_a_camera_that_never_moved_is_unsolvable():
+    """Its system solved to 0 m (every dz is 0) and counted as solved."""
+    sqrt_area = np.array([[10.0, 11.0, 12.5], [10.0, 11.0, 12.5]])
+    dz = np.array([[0.0, 0.1, 0.2], [0.0, 0.0, 0.0]])
+    d1, bad = solve(sqrt_area, dz)
+    assert bad.tolist() == [False, True] and d1[1] == 0.0
+
+
+def test_n_obs_beyond_the_observations_is_refused_as_training_refuses_it(tmp_path):
+    """--n-obs 11 on examples of 10 was reported as n = 11."""
+    z = [1.0, 1.2, 1.5, 2.0, 3.0]
+    path = make_store(tmp_path / "s.zarr", "short", [{"z": z, "areas": ideal(z), "d1": 1.0}])
+    r = CliRunner().invoke(main, ["baseline", "vosde", path, "--n-obs", "6", "-o", str(tmp_path / "p.csv")])
+    assert r.exit_code == 2, r.output
+    assert r.stderr == (f"odms-data: error: {path}: example short/000: need 2 <= n_obs <= n, got n_obs=6 "
+                        "for an example of 5 frames\n")
+    assert not (tmp_path / "p.csv").exists()

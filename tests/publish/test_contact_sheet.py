@@ -10,6 +10,8 @@ from odms_data.cli import main
 from odms_data.publish.contact_sheet import CROP_LEAST, THUMB_WIDTH, contact_sheet, object_box
 from odms_data.simulate.generate_store import generate
 from odms_data.simulate.params import GeneratorParams
+from odms_data.store.box_store import BoxRows, write_box_store
+from odms_data.store.format import StoreAttrs
 from odms_data.store.reader import Example, open_store
 
 
@@ -55,3 +57,32 @@ def test_show_crop(tmp_path):
     top, bottom, left, right = object_box(masks)
     assert masks.mean() < 0.001 and _first_thumbnail_bright(whole, 240, 320) < 0.001
     assert _first_thumbnail_bright(cropped, bottom - top, right - left) > 0.01  # 2x2 pixels of 16x16
+
+
+def test_show_draws_a_negative_width_marked_and_far_corners_clipped(tmp_path):
+    """A box of negative width (in ODMD's released perturb-detection-val) made show exit 3."""
+    boxes = np.tile([[0.5, 0.5, 0.2, 0.2]], (1, 3, 1))
+    rows = BoxRows(boxes, np.zeros((1, 3, 3)), np.ones((1, 3)), np.ones(1), ["neg/0"], ["hand-built"])
+    rows.move[0, :2, 2] = [-0.2, -0.1]
+    rows.boxes[0, 1, 2] = -0.1  # negative width
+    rows.boxes[0, 2, 2] = 1e160  # far past the image
+    path = str(tmp_path / "neg.zarr")
+    write_box_store(path, rows, StoreAttrs(split="neg", domain="odmd", image_size=(48, 64), counts={}))
+    out = tmp_path / "sheet.png"
+    r = CliRunner().invoke(main, ["show", path, "neg/0", "-o", str(out)])
+    assert r.exit_code == 0 and r.stderr == "", r.output
+    sheet = np.asarray(Image.open(out))
+    assert (sheet == 128).any()  # the negative box, in grey
+
+
+def test_show_draws_odmds_own_negative_width_example(tmp_path, odmd_data):
+    r = CliRunner().invoke(main, ["import", "odmd", str(odmd_data), "--set", "odmd-perturb-detection-val",
+                                  "-o", str(tmp_path)])
+    assert r.exit_code == 0, r.output
+    store = str(tmp_path / "odmd-perturb-detection-val.zarr")
+    with open_store(store) as s:
+        ids = [i for i in s.example_ids if i.endswith("02335")]
+    out = tmp_path / "02335.png"
+    r = CliRunner().invoke(main, ["show", store, ids[0], "-o", str(out)])
+    assert r.exit_code == 0 and r.stderr == "", r.output
+    assert (np.asarray(Image.open(out)) == 128).any()

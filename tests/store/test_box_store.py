@@ -49,12 +49,12 @@ def test_a_box_store_holds_its_arrays_and_no_masks_and_says_so(tmp_path):
             _ = s.area
         with pytest.raises(StoreError, match="has no masks"):
             s.read_masks(np.array([0]))
-        ex = example_boxes(s, [0, 1, 2])
+        ex = example_boxes(s, [0, 1, 2], n_obs=6)
         np.testing.assert_array_equal(ex.boxes, rows.boxes)
         np.testing.assert_array_equal(ex.move, rows.move)
-        assert box_ls(s).d1 == pytest.approx(rows.d1, rel=1e-9)  # ideal boxes: exact
+        assert box_ls(s, n_obs=6).d1 == pytest.approx(rows.d1, rel=1e-9)  # ideal boxes: exact
         with pytest.raises(InputError, match="reads stores of masks"):
-            example_boxes(s, [0], odmd_conversion=True)
+            example_boxes(s, [0], n_obs=6, odmd_conversion=True)
     report = validate(path)
     assert report.ok, report.problems
     assert report.digest == digest

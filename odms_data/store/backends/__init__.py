@@ -9,10 +9,10 @@ a store's bytes through the names below.
 from __future__ import annotations
 
 from .choose import detect_format, open_backend
-from .common import HDF5_MAGIC, Backend, Mode, StoreArray, is_url, url_filesystem
+from .common import HDF5_MAGIC, Backend, Mode, StoreArray
 from .hdf5 import Hdf5Backend
 from .sink import MaskSink
 from .zarr import ShardReader
 
 __all__ = ["HDF5_MAGIC", "Backend", "Hdf5Backend", "MaskSink", "Mode", "ShardReader", "StoreArray",
-           "detect_format", "is_url", "open_backend", "url_filesystem"]
+           "detect_format", "open_backend"]

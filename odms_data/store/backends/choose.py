@@ -5,8 +5,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from ...errors import StoreError
+from ...urls import is_url
 from ..format import format_of_name
-from .common import HDF5_MAGIC, Backend, Mode, is_url
+from .common import HDF5_MAGIC, Backend, Mode
 from .hdf5 import Hdf5Backend
 from .zarr import ZarrBackend
 

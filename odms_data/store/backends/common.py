@@ -1,4 +1,4 @@
-"""What both backends share: the `Backend` interface and its arrays, the URL helpers, the
+"""What both backends share: the `Backend` interface and its arrays, the
 compression levels, and the bounded decompression of a store's chunks.
 
 Both hold the same arrays (format.ARRAYS) and the root attribute `odms`: a JSON object
@@ -27,26 +27,6 @@ HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
 ZSTD_LEVEL = 3
 GZIP_LEVEL = 1
 
-
-def is_url(path: str) -> bool:
-    return "://" in str(path)
-
-
-def storage_options(path: str) -> dict[str, Any] | None:
-    """fsspec options for a Zarr store at `path`: a `file://` store makes its folders as it writes."""
-    return {"auto_mkdir": True} if str(path).startswith("file://") else None
-
-
-def url_filesystem(url: str) -> tuple[Any, str]:
-    """The fsspec filesystem of a store's URL and the store's path in it, its listings of that
-    path forgotten. fsspec shares one filesystem per process and caches what it lists: without
-    this a store replaced since (by zarr, through another instance) reads as the old one's files,
-    and on S3 an object whose ETag changed cannot be opened."""
-    from fsspec.core import url_to_fs
-
-    fs, root = url_to_fs(url)
-    fs.invalidate_cache(root)
-    return fs, root
 
 class StoreArray(Protocol):
     """An array of an open store: zarr's and h5py's both slice like numpy."""

@@ -18,8 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...urls import storage_options
 from .choose import BACKENDS
-from .common import GZIP_LEVEL, ZSTD_LEVEL, storage_options
+from .common import GZIP_LEVEL, ZSTD_LEVEL
 from .zarr import ShardLayout, encode_index, on_zarr_loop
 
 

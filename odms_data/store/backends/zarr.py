@@ -23,7 +23,8 @@ import numpy as np
 
 from ... import safe_json
 from ...errors import StoreError
-from .common import ZSTD_LEVEL, Backend, Mode, is_url, storage_options, url_filesystem, zstd_decode
+from ...urls import is_url, storage_options, url_filesystem
+from .common import ZSTD_LEVEL, Backend, Mode, zstd_decode
 
 SETTLE_TIMEOUT_S = 60
 
