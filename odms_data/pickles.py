@@ -1,6 +1,7 @@
 """Reading pickles and PyTorch checkpoints that may come from a stranger, without running anything
 they carry and within bounds. Every untrusted pickle odms-data reads goes through here: ODMD's sets
-(`load_pickle`) and checkpoints, a run's or one given with `--checkpoint` (`load_checkpoint`).
+(`load_pickle`), checkpoints, a run's or one given with `--checkpoint` (`load_checkpoint`), and
+NumPy `.npy` files of camera poses (`load_npy`: never unpickled, the header checked first).
 
 A pickle can name any importable callable and have the reader call it, so `pickle.load` on a
 stranger's file runs the stranger's code. Before anything is built, `_bound_structure` walks the
@@ -466,3 +467,26 @@ def load_checkpoint(path: str | os.PathLike[str]) -> Any:
     except Exception as e:  # torch raises pickle, zip and runtime errors alike for a bad file
         raise InputError(f"{p}: not a readable checkpoint ({type(e).__name__}: "
                          f"{str(e).splitlines()[0][:120] if str(e) else ''})") from None
+
+
+def load_npy(path: str | os.PathLike[str], row_shape: tuple[int, ...], max_rows: int,
+             what: str) -> np.ndarray:
+    """A `.npy` file of floats shaped (n, *row_shape), 1 <= n <= max_rows, as float64: its header
+    is checked and its length matched before the array is read, and it is never unpickled."""
+    p = Path(path)
+    with p.open("rb") as f:
+        try:
+            version = np.lib.format.read_magic(f)
+            fmt = np.lib.format
+            header = (fmt.read_array_header_1_0 if version == (1, 0) else fmt.read_array_header_2_0)(f)
+        except (ValueError, SyntaxError, OSError) as e:
+            raise InputError(f"{p}: not a readable .npy file ({' '.join(str(e).split())[:200]})") from None
+        shape, _, dtype = header
+        if dtype.kind != "f" or len(shape) != 1 + len(row_shape) or tuple(shape[1:]) != row_shape:
+            raise InputError(f"{p}: holds a {dtype} array of shape {shape}; expected floats of shape "
+                             f"(n, {', '.join(map(str, row_shape))})")
+        if not 1 <= shape[0] <= max_rows:
+            raise InputError(f"{p}: {shape[0]} {what}; expected 1 to {max_rows}")
+        if p.stat().st_size - f.tell() < shape[0] * int(np.prod(row_shape)) * dtype.itemsize:
+            raise InputError(f"{p}: shorter than the {shape[0]} {what} its header declares")
+    return np.load(p, allow_pickle=False).astype(np.float64)

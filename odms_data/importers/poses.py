@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..pickles import load_npy
 
 DIRECTIONS = ("camera-to-world", "world-to-camera")
 Pose = tuple[np.ndarray, np.ndarray]  # camera centre, unit optical axis; world coordinates, m
@@ -168,23 +169,8 @@ def _read_text(path: Path) -> PoseTable:
 
 
 def _read_npy(path: Path) -> PoseTable:
-    """An (n, 4, 4) float array, its header checked before the array is read."""
-    with path.open("rb") as f:
-        try:
-            version = np.lib.format.read_magic(f)
-            fmt = np.lib.format
-            header = (fmt.read_array_header_1_0 if version == (1, 0) else fmt.read_array_header_2_0)(f)
-        except (ValueError, SyntaxError, OSError) as e:
-            raise InputError(f"{path}: not a readable .npy file ({' '.join(str(e).split())[:200]})") from None
-        shape, _, dtype = header
-        if dtype.kind != "f" or len(shape) != 3 or shape[1:] != (4, 4):
-            raise InputError(f"{path}: holds a {dtype} array of shape {shape}; expected floats of shape "
-                             "(n, 4, 4)")
-        if not 1 <= shape[0] <= MAX_POSES:
-            raise InputError(f"{path}: {shape[0]} poses; expected 1 to {MAX_POSES}")
-        if path.stat().st_size - f.tell() < shape[0] * 16 * dtype.itemsize:
-            raise InputError(f"{path}: shorter than the {shape[0]} poses its header declares")
-    array = np.load(path, allow_pickle=False).astype(np.float64)
+    """An (n, 4, 4) float array, its header checked before the array is read (pickles.load_npy)."""
+    array = load_npy(path, (4, 4), MAX_POSES, "poses")
     for k in np.flatnonzero(~np.isfinite(array).all(axis=(1, 2)))[:1]:
         raise InputError(f"{path} pose {k}: holds a number that is not finite")
     for k in range(len(array)):

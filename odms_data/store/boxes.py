@@ -124,8 +124,9 @@ def chosen_frames(store: Store, n_obs: int, odmd_conversion: bool) -> list[np.nd
 
 def example_boxes(store: Store, rows: np.ndarray | list[int], n_obs: int = 10,
                   odmd_conversion: bool = False) -> BoxExamples:
-    """The box examples of example `rows` of `store`, far to near, min(frames, n_obs) frames each
-    (the same number for every row asked for)."""
+    """The box examples of example `rows` of `store`, far to near, n_obs frames each (an example of
+    fewer is refused; ODMD's conversion takes at most n_obs of its window), the same number for
+    every row asked for."""
     rows = np.asarray(rows, np.int64)
     chosen = [example_frames(store, int(i), n_obs, odmd_conversion) for i in rows]
     counts = {len(f) for f in chosen}

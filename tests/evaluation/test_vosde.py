@@ -178,8 +178,8 @@ def test_a_camera_that_never_moved_is_unsolvable():
     """Its system solved to 0 m (every dz is 0) and counted as solved."""
     sqrt_area = np.array([[10.0, 11.0, 12.5], [10.0, 11.0, 12.5]])
     dz = np.array([[0.0, 0.1, 0.2], [0.0, 0.0, 0.0]])
-    d1, bad = solve(sqrt_area, dz)
-    assert bad.tolist() == [False, True] and d1[1] == 0.0
+    d1, bad, ill = solve(sqrt_area, dz)
+    assert bad.tolist() == [False, True] and d1[1] == 0.0 and not ill.any()
 
 
 def test_n_obs_beyond_the_observations_is_refused_as_training_refuses_it(tmp_path):

@@ -77,7 +77,7 @@ def _sides(tmp_path):
 
 def test_example_boxes_run_far_to_near_with_the_label_at_the_last_frame(tmp_path):
     with open_store(_sides(tmp_path)) as s:
-        ex = example_boxes(s, [1, 0])
+        ex = example_boxes(s, [1, 0], n_obs=4)
         assert ex.frames.tolist() == [[7, 6, 5, 4], [3, 2, 1, 0]]
         assert ex.depth.tolist() == [1.5, 0.5]
         assert (ex.boxes[0, :, 2] * SIZE).tolist() == [19, 23, 29, 39]  # far (small) to near (large)
@@ -90,7 +90,7 @@ def test_example_boxes_run_far_to_near_with_the_label_at_the_last_frame(tmp_path
 
 def test_example_boxes_with_odmds_conversion_pair_movements_as_odmd_did(tmp_path):
     with open_store(_sides(tmp_path)) as s:
-        plain, odmd = example_boxes(s, [0]), example_boxes(s, [0], odmd_conversion=True)
+        plain, odmd = example_boxes(s, [0], n_obs=4), example_boxes(s, [0], n_obs=4, odmd_conversion=True)
     np.testing.assert_array_equal(plain.boxes, odmd.boxes)
     np.testing.assert_allclose(odmd.move[0, :, 2], [-1.0, -0.8, -0.3, 0.0])  # z_(n-1-k) - z_0, not z_3 - z_k
 
@@ -102,5 +102,5 @@ def test_example_boxes_choose_n_obs_frames_and_refuse_mixed_lengths(tmp_path):
     with open_store(path) as s:
         assert example_boxes(s, [0], n_obs=3).frames.tolist() == [[4, 2, 0]]
         assert example_boxes(s, [0, 1], n_obs=3).boxes.shape == (2, 3, 4)
-        with pytest.raises(InputError, match="examples of 3 to 5 frames"):
-            example_boxes(s, [0, 1])
+        with pytest.raises(InputError, match="n_obs=4 for an example of 3 frames"):  # never fewer frames
+            example_boxes(s, [0, 1], n_obs=4)
