@@ -901,6 +901,7 @@ class Server:
     def close(self) -> None:
         self.proc.stdin.close()  # type: ignore[union-attr]
         self.proc.wait(timeout=60)
+        self.proc.stdout.close()  # type: ignore[union-attr]
 
 
 def run_case(case: MatrixCase, server: Server, work: Path) -> tuple[list[str], Result]:
