@@ -114,7 +114,7 @@ def _generate_masks(split_name, count, preset, seed, n_obs, params, store_split,
 
     overrides = _parse_param(params)
     manifest = None
-    if split_name:
+    if split_name is not None:
         given = [o for o, v in (("-n", count), ("--preset", preset), ("--seed", seed),
                                 ("--n-obs", n_obs), ("--param", params), ("--name", store_split)) if v]
         recipe = _split_recipe(split_name, given)

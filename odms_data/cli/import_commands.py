@@ -66,7 +66,7 @@ def import_group() -> None:
               help="Leave out bad folders, import the rest and report what was skipped.")
 @click.option("--no-verify", is_flag=True,
               help="Accept content that differs from splits/<split>.json (stored as <split>-modified).")
-@click.option("--workers", type=click.IntRange(min=1), default=None,
+@click.option("--workers", type=click.IntRange(1, 1024), default=None,
               show_default="all cores", help="Decoding processes.")
 @click.option("--json", "as_json", is_flag=True, help="Print what was written as JSON.")
 def odms(data_dir, out_dir, splits, fmt, overwrite, skip_bad, no_verify, workers, as_json):
@@ -176,7 +176,7 @@ def odmd(data_dir, out_dir, sets, fmt, overwrite, as_json):
               help="Store backend (default: from the output suffix, else zarr).")
 @click.option("--overwrite", is_flag=True, help="Replace an existing store.")
 @click.option("--skip-bad", is_flag=True, help="Leave out bad rows and files, report what was skipped.")
-@click.option("--workers", type=click.IntRange(min=1), default=None,
+@click.option("--workers", type=click.IntRange(1, 1024), default=None,
               show_default="all cores", help="Decoding processes.")
 @click.option("--json", "as_json", is_flag=True, help="Print what was written as JSON.")
 def recording(mask_dir, positions, poses, pose, time_tolerance, max_rotation, output, windows, n_obs,
@@ -254,7 +254,7 @@ def recording(mask_dir, positions, poses, pose, time_tolerance, max_rotation, ou
 @click.option("--skip-bad", is_flag=True,
               help="Leave out bad frames and sequences, import the rest and report what was skipped.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
-@click.option("--workers", type=click.IntRange(min=1), default=None,
+@click.option("--workers", type=click.IntRange(1, 1024), default=None,
               show_default="all cores", help="Decoding processes.")
 def synthia(seq_dirs, output, camera, classes, frames, stride, min_area, no_border, no_occluded, move,
             d1_range, max_gap, matrix_order, pose, forward, name, fmt, overwrite, skip_bad, as_json, workers):
