@@ -17,7 +17,6 @@ from ..store.manifests import SplitManifest, load_manifest
 from ..store.masks import packed_width
 from ..store.writer import Layout
 from .params import DEFAULT_EXAMPLES_PER_SHARD, GENERATOR_VERSION, MAX_FRAMES, GeneratorParams
-from .shard_run import run
 from .shard_task import SOURCE, ShardTask, example_ids
 
 SHARD_BYTES = 2**28  # the most packed mask bytes one shard task holds
@@ -51,6 +50,14 @@ def work_seconds(count: int, params: GeneratorParams) -> float:
     return count * (EXAMPLE_S + params.n_obs * H * W / 1e6 * MEGAPIXEL_S)
 
 
+def run_task(task: ShardTask) -> Rows:
+    """shards.run_shard(task), the renderer imported only where the task runs, so that the process
+    handing tasks out never loads it."""
+    from .shards import run_shard
+
+    return run_shard(task)
+
+
 class GeneratedMasks(Source):
     """The mask generator as a store source: tasks of `per_task` examples (shard_task.py), each
     made and digested where it runs (shards.py)."""
@@ -74,7 +81,7 @@ class GeneratedMasks(Source):
                             min(s + self.per_task, self.count))
 
     def runner(self) -> Callable[[ShardTask], Rows]:
-        return run
+        return run_task
 
     def attrs(self, digest: str) -> StoreAttrs:
         H, W = self.params.image_size
