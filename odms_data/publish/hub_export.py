@@ -27,7 +27,7 @@ import numpy as np
 from .. import safe_json
 from ..errors import InputError, OdmsError
 from ..extras import optional
-from ..outputs import Kind, atomic_folder
+from ..outputs import OutputType, atomic_folder
 from ..store.build import Progress
 from ..store.digest import READ_BYTES, check_recorded_digest
 from ..store.format import ARRAYS
@@ -145,7 +145,7 @@ def _not_an_export(path: Path) -> str | None:
     return None
 
 
-EXPORT = Kind("export", _not_an_export)
+EXPORT = OutputType("export", _not_an_export)
 
 
 def export_hub(
