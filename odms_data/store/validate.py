@@ -126,7 +126,7 @@ def _check_content(store: Store, report: Report, progress: Progress | None) -> N
         return
     z = store.raw("z")
     n_obs = (fi >= 0).sum(axis=1)
-    excused = {o.subject for o in store.attrs.oddities if o.kind == Z_ODDITY}
+    excused = {o.subject for o in store.attrs.oddities if o.problem == Z_ODDITY}
     zz = np.where(fi >= 0, z[np.maximum(fi, 0)], np.inf)
     with np.errstate(invalid="ignore"):  # inf - inf in the padding of shorter examples
         steps = np.diff(zz, axis=1)
