@@ -38,7 +38,7 @@ class SplitRecipe:
 def split_recipe(name: str) -> SplitRecipe:
     """The recipe of generated split `name`; InputError for an unknown or imported split."""
     manifest = load_manifest(name)
-    if manifest.kind != "generated":
+    if manifest.origin != "generated":
         raise InputError(f"split '{name}' is imported, not generated", fix="import")
     gen = manifest.generator or {}
     return SplitRecipe(manifest, manifest.count, gen["preset"], gen["seed"], dict(gen.get("params", {})))

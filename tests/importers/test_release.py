@@ -27,7 +27,7 @@ def test_counts_and_digests_match_the_manifests(official_stores):
     assert sorted(official_stores) == sorted(SPLITS)
     for name, path in official_stores.items():
         manifest = load_manifest(name)
-        assert manifest.kind == "imported" and manifest.count == COUNTS[name]
+        assert manifest.origin == "imported" and manifest.count == COUNTS[name]
         with open_store(str(path)) as s:
             assert s.attrs.split == name and s.attrs.domain == name.split("-")[0]
             assert len(s) == COUNTS[name] and s.attrs.digest == manifest.digest
