@@ -21,7 +21,7 @@ import numpy as np
 from odms_data.evaluation.ground_truth import data_locations, find_stores
 from odms_data.pickles import load_pickle
 from odms_data.protocol import OFFICIAL_SPLITS, ROBOT_FRAMES, ROBOT_WINDOWS
-from odms_data.store.boxes import chosen_frames, frame_boxes
+from odms_data.store.box_rule import chosen_frames, frame_boxes
 from odms_data.store.reader import open_store
 
 

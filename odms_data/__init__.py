@@ -6,6 +6,7 @@ The library API that the `odms-data` command line is a thin layer over:
     odms_data.generate("train.zarr", 10_000, odms_data.preset("perturb"), seed=7, workers=2)
     with odms_data.open_store("train.zarr") as store:
         example = store.example(0)        # masks (n, H, W) bool, z, depth, d1, ...
+        boxes = odms_data.example_boxes(store, [0])  # ODMD's boxes (Griffin & Corso, CVPR 2021)
 
 The names below are loaded on first use, so `import odms_data` costs almost nothing; the layers
 they come from (store/, simulate/, importers/, evaluation/, loaders/, cli/) are described in
@@ -27,20 +28,31 @@ _EXPORTS = {
     "preset": "simulate.params", "generate": "simulate.generate_store",
     "import_release": "importers.release", "import_recording": "importers.recording",
     "import_synthia": "importers.synthia",
+    # ODMD's: examples of boxes, read from any store, generated, imported, loaded; its baseline
+    "BoxExamples": "store.box_rule", "example_boxes": "store.box_rule",
+    "generate_box_store": "simulate.generate_box_store", "import_odmd": "importers.odmd",
+    "GeneratedBoxExamples": "loaders.box_sources", "StoreBoxExamples": "loaders.box_sources",
+    "box_ls": "evaluation.box_ls",
 }
 __all__ = [
-    "PRESETS", "Example", "GeneratorParams", "InputError", "OdmsError", "Store", "StoreError", "__version__",
-    "convert", "generate", "import_recording", "import_release", "import_synthia", "open_store", "preset",
-    "validate",
+    "PRESETS", "BoxExamples", "Example", "GeneratedBoxExamples", "GeneratorParams", "InputError", "OdmsError",
+    "Store", "StoreBoxExamples", "StoreError", "__version__", "box_ls", "convert", "example_boxes",
+    "generate", "generate_box_store", "import_odmd", "import_recording", "import_release", "import_synthia",
+    "open_store", "preset", "validate",
 ]
 
 if TYPE_CHECKING:
     from .errors import InputError, OdmsError, StoreError
+    from .evaluation.box_ls import box_ls
+    from .importers.odmd import import_odmd
     from .importers.recording import import_recording
     from .importers.release import import_release
     from .importers.synthia import import_synthia
+    from .loaders.box_sources import GeneratedBoxExamples, StoreBoxExamples
+    from .simulate.generate_box_store import generate_box_store
     from .simulate.generate_store import generate
     from .simulate.params import PRESETS, GeneratorParams, preset
+    from .store.box_rule import BoxExamples, example_boxes
     from .store.convert import convert
     from .store.reader import Example, Store, open_store
     from .store.validate import validate

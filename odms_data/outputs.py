@@ -1,7 +1,7 @@
 """The one owner of every write of every output: stores, files, exports, training runs, entries.
 
 - what may be replaced (`check_replaceable`): an existing path is refused unless `overwrite`, and
-  even then when the output's `Kind` says it is not odms-data's own (a folder where a file goes,
+  even then when the output's `OutputType` says it is not odms-data's own (a folder where a file goes,
   a folder that is not a store, a symbolic link where a folder goes);
 - the content goes to the sibling folder `<path>.partial` under the lock `<path>.lock` (flock,
   one writer at a time), is flushed to disk and renamed into place, so the old output survives
@@ -46,7 +46,7 @@ def _is_a_folder(path: Path) -> str | None:
 
 
 @dataclass(frozen=True)
-class Kind:
+class OutputType:
     """What an output is, for the rule of what may be replaced: its noun (for messages), what
     makes an existing path something odms-data does not replace even with `overwrite` (None: it
     may be replaced), and the errors to raise."""
@@ -57,7 +57,7 @@ class Kind:
     locked_error: type[OdmsError] = OutputLockedError
 
 
-FILE = Kind("file")
+FILE = OutputType("file")
 
 
 def write_error(path: str | os.PathLike, e: OSError) -> WriteError:
@@ -81,41 +81,41 @@ def sibling(path: str | os.PathLike, suffix: str) -> Path:
 
 
 def check_replaceable(
-    path: str | os.PathLike, overwrite: bool, kind: Kind = FILE, option: str = "",
+    path: str | os.PathLike, overwrite: bool, output_type: OutputType = FILE, option: str = "",
     suffixes: tuple[str, ...] = (),
 ) -> None:
-    """Refuse an output path that exists (unless `overwrite`), or that `kind` says odms-data does
+    """Refuse an output path that exists (unless `overwrite`), or that `output_type` says odms-data does
     not replace, or whose name does not end with one of `suffixes` (when given: a CSV named
     x.zarr would pass for a store). `option`, the name of the input that gave the path, starts the
     message and is the error's `option` (errors.OdmsError). A URL is refused: what is checked here
     is written locally."""
-    refuse_url(path, f"this {kind.noun}")
+    refuse_url(path, f"this {output_type.noun}")
     p = Path(path)
 
     def foreign() -> str | None:
-        return "is a symbolic link" if kind is not FILE and p.is_symlink() else kind.foreign(p)
+        return "is a symbolic link" if output_type is not FILE and p.is_symlink() else output_type.foreign(p)
 
     refuse_existing(f"{option} {path}" if option else str(path), p.exists() or p.is_symlink(), overwrite,
-                    foreign, kind, option)
+                    foreign, output_type, option)
     if suffixes and p.suffix.lower() not in suffixes:
         raise InputError(f"{option + ' ' if option else ''}{path}: name the file *{' or *'.join(suffixes)}",
                          option=option)
 
 
 def refuse_existing(where: str, exists: bool, overwrite: bool, foreign: Callable[[], str | None],
-                    kind: Kind, option: str = "") -> None:
+                    output_type: OutputType, option: str = "") -> None:
     """The rule itself, for a local path or a URL: `foreign()` says what makes what is there
     something odms-data does not replace (None: it may be replaced with `overwrite`); `option`
     names the input `where` starts with, if any."""
     if not exists:
         return
     what = foreign()
-    if what and kind is FILE:  # a folder where a file goes: no overwriting would help
-        raise kind.exists_error(f"{where}: {what}", option=option)
+    if what and output_type is FILE:  # a folder where a file goes: no overwriting would help
+        raise output_type.exists_error(f"{where}: {what}", option=option)
     if not overwrite:
-        raise kind.exists_error(f"{where}: already exists", fix="overwrite", option=option)
+        raise output_type.exists_error(f"{where}: already exists", fix="overwrite", option=option)
     if what:
-        raise kind.exists_error(f"{where}: {what}", fix="overwrite-ours", option=option)
+        raise output_type.exists_error(f"{where}: {what}", fix="overwrite-ours", option=option)
 
 
 def _make_parents(path: Path) -> list[Path]:
@@ -125,15 +125,15 @@ def _make_parents(path: Path) -> list[Path]:
     return missing
 
 
-def _open_lock(lock: Path, path: str | os.PathLike, kind: Kind) -> int:
+def _open_lock(lock: Path, path: str | os.PathLike, output_type: OutputType) -> int:
     """Open the lock file, creating it, or taking over one that is provably a stale lock of ours;
     never through a link, never a file that is something else."""
     try:
         return os.open(lock, os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
     except FileExistsError:
         pass
-    foreign = kind.exists_error(f"{lock}: exists and is not an odms-data lock; odms-data locks {path} "
-                                "with this name, so move it away")
+    foreign = output_type.exists_error(f"{lock}: exists and is not an odms-data lock; odms-data locks "
+                                       f"{path} with this name, so move it away")
     try:
         fd = os.open(lock, os.O_RDWR | os.O_NOFOLLOW | os.O_NONBLOCK)
     except OSError as e:
@@ -149,7 +149,7 @@ def _open_lock(lock: Path, path: str | os.PathLike, kind: Kind) -> int:
 
 
 @contextmanager
-def output_lock(path: str | os.PathLike, kind: Kind = FILE) -> Iterator[None]:
+def output_lock(path: str | os.PathLike, output_type: OutputType = FILE) -> Iterator[None]:
     """Hold `<path>.lock` (flock, holding this process's id) while `path` is written. Folders made
     for it are removed again when they are left empty (the write failed). A path inside a Zarr
     store is refused."""
@@ -164,7 +164,7 @@ def output_lock(path: str | os.PathLike, kind: Kind = FILE) -> Iterator[None]:
         with uninterrupted():  # a stop waits until what is made here is set to be removed
             try:
                 made = _make_parents(lock)
-                fd = _open_lock(lock, path, kind)
+                fd = _open_lock(lock, path, output_type)
             except OSError as e:
                 raise write_error(path, e) from None
             try:
@@ -175,8 +175,8 @@ def output_lock(path: str | os.PathLike, kind: Kind = FILE) -> Iterator[None]:
                     raise BlockingIOError  # the holder removed it as we opened it: it was busy
             except (BlockingIOError, FileNotFoundError):
                 holder = os.pread(fd, 64, 0).decode(errors="replace").strip() or "unknown"
-                raise kind.locked_error(f"{path}: another odms-data process (pid {holder}) is writing "
-                                        f"this {kind.noun}") from None
+                raise output_type.locked_error(f"{path}: another odms-data process (pid {holder}) is writing "
+                                               f"this {output_type.noun}") from None
             locked = True
             try:
                 os.ftruncate(fd, 0)
@@ -197,9 +197,9 @@ def output_lock(path: str | os.PathLike, kind: Kind = FILE) -> Iterator[None]:
                 break  # not empty: it holds the output
 
 
-def _ours(folder: Path, kind: Kind) -> bool:
+def _ours(folder: Path, output_type: OutputType) -> bool:
     """Whether `folder` is a sibling folder odms-data made: a real folder, empty, with the marker,
-    or (for a folder output) an output of this kind that `kind` recognises as odms-data's, as a
+    or (for a folder output) an output of this type that `output_type` recognises as odms-data's, as a
     run killed between the marker's removal and the rename leaves it."""
     try:
         if not stat.S_ISDIR(os.lstat(folder).st_mode):
@@ -209,22 +209,22 @@ def _ours(folder: Path, kind: Kind) -> bool:
             return True
     except FileNotFoundError:
         return False
-    return kind is not FILE and kind.foreign(folder) is None
+    return output_type is not FILE and output_type.foreign(folder) is None
 
 
-def _refuse_foreign(folder: Path, target: Path, kind: Kind) -> None:
+def _refuse_foreign(folder: Path, target: Path, output_type: OutputType) -> None:
     """Refuse a sibling `folder` of `target` that is there and not odms-data's own."""
-    if os.path.lexists(folder) and not _ours(folder, kind):
+    if os.path.lexists(folder) and not _ours(folder, output_type):
         what = "a symbolic link" if folder.is_symlink() else "a folder" if folder.is_dir() else "a file"
-        raise kind.exists_error(f"{folder}: is {what} odms-data did not make; odms-data writes {target} "
-                                "through this name, so move it away")
+        raise output_type.exists_error(f"{folder}: is {what} odms-data did not make; odms-data writes "
+                                       f"{target} through this name, so move it away")
 
 
-def _make_sibling_folder(folder: Path, target: Path, kind: Kind) -> None:
+def _make_sibling_folder(folder: Path, target: Path, output_type: OutputType) -> None:
     """Make the sibling folder `folder` of `target` with the marker in it; a stale one of ours (an
     interrupted run's) is removed first, anything else there is refused."""
     if os.path.lexists(folder):
-        _refuse_foreign(folder, target, kind)
+        _refuse_foreign(folder, target, output_type)
         _remove_sibling_folder(folder)
     folder.mkdir()
     try:
@@ -268,9 +268,9 @@ class Partial:
     `<path>.partial` (odms-data's, marked), which is the output itself when the output is a
     folder, and holds it under its own name when it is a file."""
 
-    def __init__(self, path: str | os.PathLike, folder: bool, kind: Kind = FILE) -> None:
-        refuse_url(path, f"this {kind.noun}")
-        self.target, self.kind, self.is_folder = Path(path), kind, folder
+    def __init__(self, path: str | os.PathLike, folder: bool, output_type: OutputType = FILE) -> None:
+        refuse_url(path, f"this {output_type.noun}")
+        self.target, self.output_type, self.is_folder = Path(path), output_type, folder
         self.folder = sibling(path, ".partial")
         self.path = self.folder if folder else self.folder / self.target.name
         self._made = False
@@ -279,9 +279,9 @@ class Partial:
         """Make the (empty) partial output's place; returns its path. A foreign `.replaced`
         sibling is refused now, before the work, rather than when the output is moved into place."""
         if self.is_folder or self.target.is_dir():  # the two cases that move the old output aside
-            _refuse_foreign(sibling(self.target, ".replaced"), self.target, self.kind)
+            _refuse_foreign(sibling(self.target, ".replaced"), self.target, self.output_type)
         self._made = True  # before: `discard` removes what a stop leaves of it, which is provably ours
-        _make_sibling_folder(self.folder, self.target, self.kind)
+        _make_sibling_folder(self.folder, self.target, self.output_type)
         return self.path
 
     def commit(self) -> None:
@@ -291,7 +291,7 @@ class Partial:
             fsync_tree(self.path)
             if self.is_folder:  # only now: a stale partial without the marker is refused, not removed
                 (self.folder / MARKER).unlink()
-            _move_into_place(self.path, self.target, self.kind)
+            _move_into_place(self.path, self.target, self.output_type)
             if not self.is_folder:
                 (self.folder / MARKER).unlink()
                 self.folder.rmdir()
@@ -300,7 +300,7 @@ class Partial:
     def discard(self) -> None:
         """Remove what was written, if this made it: the sibling folder, if it is odms-data's own
         (`_ours`: empty or marked), as a stop in the middle of its making leaves it."""
-        if self._made and _ours(self.folder, self.kind):  # made under our lock
+        if self._made and _ours(self.folder, self.output_type):  # made under our lock
             _remove_sibling_folder(self.folder)
         self._made = False
 
@@ -331,14 +331,14 @@ def sync_parent(path: str | os.PathLike) -> None:
     _fsync(Path(path).absolute().parent, os.O_RDONLY | os.O_DIRECTORY)
 
 
-def _move_into_place(new: Path, target: Path, kind: Kind) -> None:
+def _move_into_place(new: Path, target: Path, output_type: OutputType) -> None:
     """Rename the finished `new` onto `target`. A file replaces a file in one rename; anything
     else there is first moved aside into the sibling folder `<target>.replaced` and removed after."""
     if not (new.is_dir() or target.is_dir()) or not os.path.lexists(target):
         os.replace(new, target)
     else:
         aside = sibling(target, ".replaced")
-        _make_sibling_folder(aside, target, kind)
+        _make_sibling_folder(aside, target, output_type)
         target.rename(aside / target.name)
         try:
             new.rename(target)
@@ -372,12 +372,13 @@ def atomic_file(path: str | os.PathLike, *, overwrite: bool = False, option: str
 
 
 @contextmanager
-def replaced_via_partial(path: str | os.PathLike, kind: Kind = FILE, folder: bool = False) -> Iterator[Path]:
+def replaced_via_partial(path: str | os.PathLike, output_type: OutputType = FILE,
+                         folder: bool = False) -> Iterator[Path]:
     """`atomic_file` without the lock and the existence check, for a file that its owner
     replaces as it goes (a training run's checkpoints, under the run's lock): yields the path to
     write, flushed and renamed onto `path` when the block ends normally, removed (and a full
     disk one line naming `path`) when it does not."""
-    partial = Partial(path, folder=folder, kind=kind)
+    partial = Partial(path, folder=folder, output_type=output_type)
     try:
         yield partial.make()
         partial.commit()
@@ -401,10 +402,11 @@ def write_text(path: str | os.PathLike, text: str, *, overwrite: bool = False, o
 
 
 @contextmanager
-def atomic_folder(path: str | os.PathLike, kind: Kind, *, overwrite: bool = False) -> Iterator[Path]:
+def atomic_folder(path: str | os.PathLike, output_type: OutputType, *,
+                  overwrite: bool = False) -> Iterator[Path]:
     """`atomic_file` for an output that is a folder: yields the empty folder to write, renamed
-    onto `path` (replacing what was there, if `kind` allows it) when the block ends normally."""
-    with output_lock(path, kind):
-        check_replaceable(path, overwrite, kind)
-        with replaced_via_partial(path, kind, folder=True) as partial:
+    onto `path` (replacing what was there, if `output_type` allows it) when the block ends normally."""
+    with output_lock(path, output_type):
+        check_replaceable(path, overwrite, output_type)
+        with replaced_via_partial(path, output_type, folder=True) as partial:
             yield partial

@@ -108,7 +108,7 @@ def test_a_ctrl_c_with_pythons_own_handler_waits_for_the_write_in_progress():
         signal.signal(signal.SIGINT, previous)
 
 
-RUN = outputs.Kind("run", lambda p: None)
+RUN = outputs.OutputType("run", lambda p: None)
 
 
 def _old_output(tmp_path):
@@ -183,7 +183,7 @@ def killed_at_the_second(src, dst):
     rename(src, dst)
 
 os.rename = killed_at_the_second
-with outputs.atomic_folder(out, outputs.Kind("run", lambda p: None), overwrite=True) as new:
+with outputs.atomic_folder(out, outputs.OutputType("run", lambda p: None), overwrite=True) as new:
     (new / "new").write_text("the new output")
 """
 

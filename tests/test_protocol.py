@@ -6,7 +6,7 @@ from odms_data.store.manifests import load_manifest, split_names
 
 
 def test_official_splits_and_counts_are_the_imported_manifests():
-    imported = [s for s in split_names() if load_manifest(s).kind == "imported" and s not in ODMD_SETS]
+    imported = [s for s in split_names() if load_manifest(s).origin == "imported" and s not in ODMD_SETS]
     assert sorted(imported) == sorted(OFFICIAL_SPLITS) == sorted(OFFICIAL_COUNTS)
     assert {s: load_manifest(s).count for s in imported} == OFFICIAL_COUNTS
     assert sum(OFFICIAL_COUNTS.values()) == 15_650

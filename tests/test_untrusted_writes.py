@@ -22,7 +22,7 @@ from PIL import Image
 
 from odms_data.errors import InputError, OdmsError, OutputLockedError, WriteError
 from odms_data.network.checkpoint import Checkpoint
-from odms_data.network.run_folder import RUN_KIND, RunFolder, TrainConfig
+from odms_data.network.run_folder import RUN_OUTPUT, RunFolder, TrainConfig
 from odms_data.network.training import _save, train
 from odms_data.outputs import MARKER, NAME_MAX, output_lock, replaced_via_partial, sibling, write_text
 from odms_data.publish.contact_sheet import save_image
@@ -185,7 +185,7 @@ def test_sibling_names_are_shortened_only_when_needed_and_stay_distinct(tmp_path
 def test_two_training_runs_into_one_folder_are_refused(tmp_path):
     run = tmp_path / "run"
     config = TrainConfig(iterations=1, batch_size=2, val=(str(tmp_path / "v.zarr"),))
-    with output_lock(run, RUN_KIND), pytest.raises(OutputLockedError, match="is writing this training run"):
+    with output_lock(run, RUN_OUTPUT), pytest.raises(OutputLockedError, match="is writing this training run"):
         train(run, config, workers=0, device="cpu")
     assert not run.exists()
 

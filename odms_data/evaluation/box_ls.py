@@ -7,7 +7,7 @@ squares over the observations of
     [w_k, 1, 0] [d1, -c_w, -c_h]^T = w_k m_k,    [h_k, 0, 1] [d1, -c_w, -c_h]^T = h_k m_k,
 
 with m_k = z_1 - z_k the camera movement to the closest observation, gives the estimate d1.
-Boxes and movements are the store's box examples (store/boxes.py `example_boxes`), far to near.
+Boxes and movements are the store's box examples (store/box_rule.py `example_boxes`), far to near.
 With more than N observations, N evenly spaced ones are used, as VOS-DE uses them.
 
 As in the authors' code: a box of zero width is a missing detection and takes the box of the
@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from ..store.boxes import chosen_frames, example_boxes
+from ..store.box_rule import chosen_frames, example_boxes
 from ..store.reader import Store
 from .baseline_result import BaselineResult
 from .least_squares import first_unknown, unmoved

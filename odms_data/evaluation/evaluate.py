@@ -11,6 +11,7 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..protocol import split_order
+from ..store.build import Progress
 from ..store.reader import Store, open_store
 from .baseline_result import BaselineCounts, BaselineResult
 from .compare import Comparison, compare
@@ -57,7 +58,7 @@ class Evaluation:
 
     def score(
         self, predictions: str | Path, *, allow_partial: bool = False, verify: bool = False,
-        progress: Callable[[str, int, int], None] | None = None, intervals: bool = True,
+        progress: Progress | None = None, intervals: bool = True,
     ) -> tuple[Predictions, ScoreReport]:
         """The predictions file as read, and its score against the stores of the data folders.
         With `verify` (what a leaderboard entry needs) a complete score's stores are checked

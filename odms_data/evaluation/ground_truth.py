@@ -14,13 +14,14 @@ digest it records, and, for a named split, that digest against the split's manif
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import DigestMismatchError, InputError, StoreError
+from ..store.build import Progress
 from ..store.digest import check_recorded_digest
 from ..store.format import format_of_name
 from ..store.manifests import check_against_manifest, load_manifest, split_names
@@ -126,7 +127,7 @@ def load_truth(path: Location) -> SplitTruth:
                           n_obs, last - first + 1, motion)
 
 
-def verify_truth(truth: SplitTruth, progress: Callable[[str, int, int], None] | None = None) -> None:
+def verify_truth(truth: SplitTruth, progress: Progress | None = None) -> None:
     """StoreError or DigestMismatchError unless the store of `truth` holds the content its digest
     says (every mask read; `progress(split, frames done, frames total)` follows them) and, for a
     named split, that digest is its manifest's; also unless the labels scored are the ones digested."""

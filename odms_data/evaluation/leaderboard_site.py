@@ -19,7 +19,7 @@ import re
 from pathlib import Path
 
 from .._version import __version__
-from ..outputs import Kind, atomic_folder
+from ..outputs import OutputType, atomic_folder
 from ..protocol import SPLIT_FAMILIES
 from ..shown_text import html
 from .leaderboard import BENCHMARKS, LeaderboardEntry, family_all, name_key, ranked
@@ -179,7 +179,7 @@ def _not_a_site(path: Path) -> str | None:
     return "is a folder odms-data did not write as a leaderboard site"
 
 
-SITE = Kind("leaderboard site", _not_a_site)
+SITE = OutputType("leaderboard site", _not_a_site)
 
 
 def entry_page(entry: LeaderboardEntry) -> str:

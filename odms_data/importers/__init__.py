@@ -8,5 +8,5 @@ the sources of bad frames, a check before the commit. The base has the store bui
 (store/build.py) write the plan, retries without the dropped sources and answers with an
 `ImportResult` (result.py). A plan of masks is a store source in mask_store.py, which reads the
 masks (mask files, mask_files.py, or other mask sources) on worker processes (decoding.py) and
-records the oddities the data shows (oddities.py); a plan of boxes is store/box_store.py's.
+records the oddities the data shows (mask_store.py); a plan of boxes is store/box_store.py's.
 """

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from itertools import pairwise
 from pathlib import Path
@@ -305,7 +305,7 @@ def _read_poses(
 
 def _scan_frames(
     seq: SequenceFiles, pool: Workers, classes: tuple[int, ...], size: tuple[int, int] | None, skips: Skips,
-    progress: Callable[[str, int, int], None] | None,
+    progress: Progress | None,
 ) -> tuple[dict[int, FrameScan], tuple[int, int] | None]:
     """The scans of a sequence's frames, and the image size (the first readable frame's); a frame
     that cannot be read or has another size is dropped (skips)."""
@@ -335,7 +335,7 @@ def scan_sequences(
     classes: tuple[int, ...] = PAPER_SELECTION.classes,
     convention: PoseConvention = SYNTHIA_POSES,
     skip_bad: bool = False,
-    progress: Callable[[str, int, int], None] | None = None,
+    progress: Progress | None = None,
 ) -> Scanned:
     """Read the camera parameters and scan the label and depth images of every sequence."""
     if camera not in CAMERAS:

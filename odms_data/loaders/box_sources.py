@@ -1,6 +1,6 @@
 """Box examples as DBox's inputs (box_transform.py): freshly generated ones
 (simulate/box_examples.py), the box kind's source for every loader's stream, and a store's
-(store/boxes.py: any store, of boxes or of masks through the box rule)."""
+(store/box_rule.py: any store, of boxes or of masks through the box rule)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..simulate.box_examples import BOX_PRESETS, BoxParams, sample_box_examples
-from ..store.boxes import example_boxes
+from ..store.box_rule import example_boxes
 from .box_transform import DBOX_TRANSFORM, BoxTransform
 from .store_rows import StoreRows
 
@@ -44,7 +44,7 @@ class GeneratedBoxExamples:
 
 
 class StoreBoxExamples(StoreRows):
-    """The examples of the store at `path` as box examples (store/boxes.py), transformed;
+    """The examples of the store at `path` as box examples (store/box_rule.py), transformed;
     `example(i)` by row."""
 
     def __init__(self, path: str, transform: BoxTransform = DBOX_TRANSFORM) -> None:

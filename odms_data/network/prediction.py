@@ -7,7 +7,6 @@ as in training's validation.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +16,7 @@ from ..errors import InputError
 from ..evaluation.predictions import write_predictions
 from ..outputs import check_replaceable
 from ..protocol import split_order
+from ..store.build import Progress
 from .models import Model, model_of
 from .run_folder import BEST, LAST, PER_SET, RunFolder, TrainConfig
 from .runtime import eval_batches, pick_device, read_checkpoint, to_device
@@ -48,7 +48,7 @@ def load_trained(
 @torch.inference_mode()
 def predict_store(
     net: torch.nn.Module, model: Model, path: str, device: torch.device, workers: int,
-    progress: Callable[[str, int, int], None] = lambda split, done, total: None,
+    progress: Progress = lambda split, done, total: None,
 ) -> tuple[str, list[str], np.ndarray]:
     """(split, example ids, predicted d1) of every example of the store at `path`;
     `progress(split, examples done, examples)` after each batch."""
@@ -71,7 +71,7 @@ Loaded = tuple[torch.nn.Module, TrainConfig, int]  # a network in eval mode, its
 def predict(
     folder: RunFolder, stores: dict[str, Path | str], output: str | Path, *, which: str = "best",
     workers: int = 0, device: str | None = None, overwrite: bool = False,
-    progress: Callable[[str, int, int], None] = lambda split, done, total: None,
+    progress: Progress = lambda split, done, total: None,
 ) -> tuple[int, TrainConfig, dict[str, int]]:
     """Write the predictions file (schemas/PREDICTIONS.md) of the run's `which` checkpoint for every
     example of `stores` ({split: path}); returns (rows, the run's config, {split: the iteration of
@@ -91,7 +91,7 @@ def predict(
 def predict_from_weights(
     weights: str | Path, model: str, stores: dict[str, Path | str], output: str | Path, *, n_obs: int = 10,
     workers: int = 0, device: str | None = None, overwrite: bool = False,
-    progress: Callable[[str, int, int], None] = lambda split, done, total: None,
+    progress: Progress = lambda split, done, total: None,
 ) -> tuple[int, TrainConfig, dict[str, int]]:
     """As predict, with the network `model` of n_obs observations holding the weights of the state
     dict file `weights` (ODMD's DBox_pretrained_paper.pt, or DBox.state_dict() saved); its
@@ -106,7 +106,7 @@ def predict_from_weights(
 
 def _predict(
     loaded: dict[str, Loaded], stores: dict[str, Path | str], output: str | Path, workers: int,
-    dev: torch.device, overwrite: bool, progress: Callable[[str, int, int], None],
+    dev: torch.device, overwrite: bool, progress: Progress,
 ) -> tuple[int, TrainConfig, dict[str, int]]:
     """Predict each store `split` with the network `loaded[split]`, write the file."""
     rows: list[tuple[str, str, float]] = []

@@ -10,7 +10,7 @@
 Checkpoints, the configuration and the plot are written to a `.partial` sibling, flushed and
 renamed into place (outputs.replaced_via_partial), so an interruption or a full disk leaves the
 previous complete file and no sibling. A run is written under the lock `RUN.lock`, and a folder is
-a run only when its config.json is the one odms-data wrote (`RUN_KIND`): `--overwrite` replaces
+a run only when its config.json is the one odms-data wrote (`RUN_OUTPUT`): `--overwrite` replaces
 nothing else.
 """
 
@@ -29,7 +29,7 @@ from typing import IO, Any, get_type_hints
 from .. import safe_json
 from .._version import __version__
 from ..errors import InputError, OdmsError
-from ..outputs import Kind, replaced_via_partial
+from ..outputs import OutputType, replaced_via_partial
 from ..store.manifests import load_manifest, split_names
 from .variants import variant
 
@@ -153,7 +153,8 @@ def _splits_of_seed(seed: int) -> list[str]:
     return [m.name for m in manifests if m.generator and m.generator.get("seed") == seed]
 
 
-RUN_KIND = Kind("training run", lambda path: None)  # for the lock; RunFolder.check: what may be replaced
+# for the lock; RunFolder.check: what may be replaced
+RUN_OUTPUT = OutputType("training run", lambda path: None)
 
 
 class RunFolder:

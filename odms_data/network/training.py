@@ -29,7 +29,7 @@ from ..evaluation.metrics import percent_errors
 from ..outputs import output_lock, replaced_via_partial
 from .checkpoint import Checkpoint
 from .models import Batch, Model, model_of
-from .run_folder import BEST, LAST, RUN_KIND, TRAIN, VAL, AddRow, RunFolder, TrainConfig, best_of
+from .run_folder import BEST, LAST, RUN_OUTPUT, TRAIN, VAL, AddRow, RunFolder, TrainConfig, best_of
 from .runtime import eval_batches, pick_device, read_checkpoint, to_device
 
 
@@ -136,7 +136,7 @@ def train(
 ) -> Status:
     """Train (or resume) the run at `path`, under its lock; `workers` processes make the stream's
     batches. Returns the final status; a run that is already complete returns at once."""
-    with output_lock(path, RUN_KIND):
+    with output_lock(path, RUN_OUTPUT):
         return _train(path, config, workers, device, overwrite, report)
 
 

@@ -27,7 +27,8 @@ import numpy as np
 from .. import safe_json
 from ..errors import InputError, OdmsError
 from ..extras import optional
-from ..outputs import Kind, atomic_folder
+from ..outputs import OutputType, atomic_folder
+from ..store.build import Progress
 from ..store.digest import READ_BYTES, check_recorded_digest
 from ..store.format import ARRAYS
 from ..store.masks import packed_width
@@ -43,7 +44,6 @@ from .hub_metadata import (
 )
 
 ROW_GROUP = 100  # examples per Parquet row group: small groups let the Hub's viewer page quickly
-Progress = Callable[[str, int, int], None]  # (output, examples written, examples in all the stores)
 
 
 def _example_rows(store: Store, rows: range) -> dict[str, list]:
@@ -145,7 +145,7 @@ def _not_an_export(path: Path) -> str | None:
     return None
 
 
-EXPORT = Kind("export", _not_an_export)
+EXPORT = OutputType("export", _not_an_export)
 
 
 def export_hub(

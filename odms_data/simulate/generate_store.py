@@ -17,7 +17,6 @@ from ..store.manifests import SplitManifest, load_manifest
 from ..store.masks import packed_width
 from ..store.writer import Layout
 from .params import DEFAULT_EXAMPLES_PER_SHARD, GENERATOR_VERSION, MAX_FRAMES, GeneratorParams
-from .shard_run import run
 from .shard_task import SOURCE, ShardTask, example_ids
 
 SHARD_BYTES = 2**28  # the most packed mask bytes one shard task holds
@@ -39,7 +38,7 @@ class SplitRecipe:
 def split_recipe(name: str) -> SplitRecipe:
     """The recipe of generated split `name`; InputError for an unknown or imported split."""
     manifest = load_manifest(name)
-    if manifest.kind != "generated":
+    if manifest.origin != "generated":
         raise InputError(f"split '{name}' is imported, not generated", fix="import")
     gen = manifest.generator or {}
     return SplitRecipe(manifest, manifest.count, gen["preset"], gen["seed"], dict(gen.get("params", {})))
@@ -49,6 +48,14 @@ def work_seconds(count: int, params: GeneratorParams) -> float:
     """About how many CPU-seconds generating `count` examples takes (to choose the workers)."""
     H, W = params.image_size
     return count * (EXAMPLE_S + params.n_obs * H * W / 1e6 * MEGAPIXEL_S)
+
+
+def run_task(task: ShardTask) -> Rows:
+    """shards.run_shard(task), the renderer imported only where the task runs, so that the process
+    handing tasks out never loads it."""
+    from .shards import run_shard
+
+    return run_shard(task)
 
 
 class GeneratedMasks(Source):
@@ -74,7 +81,7 @@ class GeneratedMasks(Source):
                             min(s + self.per_task, self.count))
 
     def runner(self) -> Callable[[ShardTask], Rows]:
-        return run
+        return run_task
 
     def attrs(self, digest: str) -> StoreAttrs:
         H, W = self.params.image_size

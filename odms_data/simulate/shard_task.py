@@ -1,4 +1,5 @@
-"""What one shard task of a generated store is; shards.py runs it (through shard_run.py).
+"""What one shard task of a generated store is; shards.py runs it (through
+generate_store.run_task).
 
 Light: the process that hands tasks out (to local workers or a Dask cluster) imports this, not
 the renderer, whose imports (Numba, OpenCV) it would pay for and never use.

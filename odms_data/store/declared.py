@@ -46,7 +46,7 @@ def store_problems(backend: Backend, raw: dict[str, Any]) -> list[str]:
 def storage_problems(backend: Backend, names: Iterable[str]) -> list[str]:
     """Every way the arrays `names` of an open store break the rules above, one line each."""
     arrays = {name: backend.array(name) for name in names}
-    check = _hdf5_problems if backend.kind == "hdf5" else _zarr_problems
+    check = _hdf5_problems if backend.format == "hdf5" else _zarr_problems
     return _size_problems(backend, arrays) or [
         p for name, arr in arrays.items() for p in check(backend, name, arr)
     ]

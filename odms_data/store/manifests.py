@@ -17,7 +17,7 @@ class SplitManifest:
     """One file of splits/: what a named split holds and the digest it must have."""
 
     name: str
-    kind: str  # "generated" or "imported"
+    origin: str  # "generated" or "imported" (the key "kind" in the file)
     count: int
     digest: str
     generator: dict[str, Any] | None = None  # preset, seed, params overrides (generated)
@@ -30,7 +30,7 @@ class SplitManifest:
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> SplitManifest:
-        return cls(**d)
+        return cls(**{("origin" if k == "kind" else k): v for k, v in d.items()})
 
 
 def split_names() -> list[str]:

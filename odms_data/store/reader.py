@@ -59,11 +59,11 @@ class Store:
 
     def __init__(self, backend: Backend, path: str, attrs: StoreAttrs) -> None:
         self.backend, self.path, self.attrs = backend, path, attrs
-        self.format = backend.kind
+        self.format = backend.format
         self.height, self.width = attrs.image_size
         masks = "masks" in arrays_of(attrs.kind)
         self._masks = backend.array("masks") if masks else None
-        self._fast = ShardReader.open(path) if masks and backend.kind == "zarr" else None
+        self._fast = ShardReader.open(path) if masks and backend.format == "zarr" else None
 
     # --- sizes -------------------------------------------------------------------------
     @property

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..errors import InputError, OdmsError, StoreError
 from .backends import open_backend
+from .build import Progress
 from .declared import store_problems
 from .digest import recompute_digest
 from .format import (
@@ -45,7 +46,7 @@ class Report:
         return not self.problems
 
 
-def validate(path: str, progress: Callable[[str, int, int], None] | None = None) -> Report:
+def validate(path: str, progress: Progress | None = None) -> Report:
     """Every problem of the store at `path`, one line each; never raises for a bad store.
     `progress(path, frames done, frames total)` is called as each block of masks has been checked."""
     report = Report(str(path))
@@ -82,7 +83,7 @@ def validate(path: str, progress: Callable[[str, int, int], None] | None = None)
     return report
 
 
-def _check_content(store: Store, report: Report, progress: Callable[[str, int, int], None] | None) -> None:
+def _check_content(store: Store, report: Report, progress: Progress | None) -> None:
     """Every rule of format.py over the arrays as stored, then the masks and the digest."""
     P = report.problems
     split = store.attrs.split
@@ -125,7 +126,7 @@ def _check_content(store: Store, report: Report, progress: Callable[[str, int, i
         return
     z = store.raw("z")
     n_obs = (fi >= 0).sum(axis=1)
-    excused = {o.subject for o in store.attrs.oddities if o.kind == Z_ODDITY}
+    excused = {o.subject for o in store.attrs.oddities if o.problem == Z_ODDITY}
     zz = np.where(fi >= 0, z[np.maximum(fi, 0)], np.inf)
     with np.errstate(invalid="ignore"):  # inf - inf in the padding of shorter examples
         steps = np.diff(zz, axis=1)
@@ -153,7 +154,7 @@ def _check_labels(P: list[str], fi: np.ndarray, depth: np.ndarray, d1: np.ndarra
     return labelled_at
 
 
-def _check_masks(store: Store, report: Report, progress: Callable[[str, int, int], None] | None) -> None:
+def _check_masks(store: Store, report: Report, progress: Progress | None) -> None:
     W, pad_bits = store.width, packed_width(store.width) * 8 - store.width
     area, largest, bbox = store.raw("area"), store.raw("largest_area"), store.raw("bbox")
     pad_mask = np.uint8((1 << pad_bits) - 1) if pad_bits else None
@@ -178,7 +179,7 @@ def _check_masks(store: Store, report: Report, progress: Callable[[str, int, int
         )
 
 
-def _check_digest(store: Store, report: Report, progress: Callable[[str, int, int], None] | None,
+def _check_digest(store: Store, report: Report, progress: Progress | None,
                   visit: Callable[[int, np.ndarray], None] | None = None) -> bool:
     """The recomputed content digest against the recorded one and the split's manifest; False
     when it could not be recomputed."""

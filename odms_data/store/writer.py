@@ -21,7 +21,15 @@ import numpy as np
 from .. import safe_json
 from ..errors import InputError, OdmsError, StoreError, StoreExistsError, StoreLockedError
 from ..interrupts import uninterrupted
-from ..outputs import DISK_FULL, Kind, Partial, check_replaceable, output_lock, refuse_existing, write_error
+from ..outputs import (
+    DISK_FULL,
+    OutputType,
+    Partial,
+    check_replaceable,
+    output_lock,
+    refuse_existing,
+    write_error,
+)
 from ..urls import is_url, url_filesystem
 from .backends import HDF5_MAGIC, Backend, MaskSink, detect_format, open_backend
 from .format import (
@@ -101,7 +109,7 @@ def _not_a_store(path: Path) -> str | None:
     return "is a file that is not an odms-data store"
 
 
-STORE = Kind("store", _not_a_store, StoreExistsError, StoreLockedError)
+STORE = OutputType("store", _not_a_store, StoreExistsError, StoreLockedError)
 
 
 def _check_suffix(path: str, fmt: str) -> None:
@@ -129,7 +137,8 @@ class StoreWriter:
         self.format = fmt or detect_format(self.path)
         self.overwrite = overwrite
         self.local = not is_url(self.path)
-        self._partial = Partial(self.path, folder=self.format == "zarr", kind=STORE) if self.local else None
+        self._partial = (Partial(self.path, folder=self.format == "zarr", output_type=STORE)
+                         if self.local else None)
         self.partial = str(self._partial.path) if self._partial else self.path
         self.backend: Backend | None = None
         self.arrays: dict = {}

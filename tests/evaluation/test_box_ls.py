@@ -13,8 +13,8 @@ from click.testing import CliRunner
 from odms_data.cli import main
 from odms_data.evaluation.box_ls import box_ls, fill_missing, solve
 from odms_data.evaluation.predictions import read_predictions
+from odms_data.store.box_rule import chosen_frames
 from odms_data.store.box_store import BoxRows, write_box_store
-from odms_data.store.boxes import chosen_frames
 from odms_data.store.format import StoreAttrs
 from odms_data.store.reader import open_store
 

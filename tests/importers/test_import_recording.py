@@ -176,5 +176,5 @@ def test_skip_bad_imports_the_rest_and_reports(tmp_path):
     for name in ("f004.png", "extra.png", "'0.2x'"):
         assert name in result.output
     with open_store(str(out)) as s:
-        assert s.n_frames == 10 and len([o for o in s.attrs.oddities if o.kind == "skipped"]) == 3
+        assert s.n_frames == 10 and len([o for o in s.attrs.oddities if o.problem == "skipped"]) == 3
     assert validate(str(out)).ok

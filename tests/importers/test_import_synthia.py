@@ -129,7 +129,7 @@ def test_store_is_valid_and_records_the_oddities(store):
     assert report.ok, report.problems
     kinds: dict[str, set] = {}
     for o in store["attrs"].oddities:
-        kinds.setdefault(o.kind, set()).add(parse_id(o.subject)[::3])
+        kinds.setdefault(o.problem, set()).add(parse_id(o.subject)[::3])
     assert kinds.pop("z-not-increasing") == {("SYNTHIA-SEQS-02-FOG", 3)}  # the camera backing up
     hidden = {("SYNTHIA-SEQS-01-DAWN", 22)}  # behind the kiosk in frames 3 to 5
     assert kinds.pop("empty-mask") == kinds.pop("depth-not-finite") == hidden
@@ -353,7 +353,7 @@ def test_skip_bad_leaves_out_a_frame_and_splits_its_tracks(small, tmp_path):
     assert len(summary["skipped"]) == 1 and "000002.png: truncated PNG" in summary["skipped"][0]
     with open_store(out) as s:  # windows of 3 frames: only frames 3 to 5 remain together
         assert {parse_id(e)[1:3] for e in s.example_ids} == {(3, 3)}
-        assert [o.kind for o in s.attrs.oddities] == ["skipped"]
+        assert [o.problem for o in s.attrs.oddities] == ["skipped"]
 
 
 def test_release_folder_names_and_camera_moves_follow_the_same_rules(official_data_dir):

@@ -27,7 +27,7 @@ def test_counts_and_digests_match_the_manifests(official_stores):
     assert sorted(official_stores) == sorted(SPLITS)
     for name, path in official_stores.items():
         manifest = load_manifest(name)
-        assert manifest.kind == "imported" and manifest.count == COUNTS[name]
+        assert manifest.origin == "imported" and manifest.count == COUNTS[name]
         with open_store(str(path)) as s:
             assert s.attrs.split == name and s.attrs.domain == name.split("-")[0]
             assert len(s) == COUNTS[name] and s.attrs.digest == manifest.digest
@@ -75,14 +75,14 @@ def test_driving_order_depth_and_oddities(official_stores, official_data_dir):
         nan = np.isnan(s.depth)
         assert nan.sum() == 7 and np.all(s.area[nan] == 0) and not np.isnan(s.d1).any()
     with open_store(str(official_stores["driving-test"])) as s:
-        odd = {(o.subject, o.kind) for o in s.attrs.oddities}
+        odd = {(o.subject, o.problem) for o in s.attrs.oddities}
         for seq in ("SYNTHIA-SEQS-02-FOG_196_20_328", "SYNTHIA-SEQS-02-FOG_196_30_328"):
             assert (f"driving-test/{seq}", "z-not-increasing") in odd
         assert sum(k == "z-not-increasing" for _, k in odd) == 2
         assert np.isnan(s.depth).sum() == 22
     with open_store(str(official_stores["perturb-val"])) as s:
         assert int((s.area == 0).sum()) == 10
-        assert len([o for o in s.attrs.oddities if o.kind == "empty-mask"]) == 7
+        assert len([o for o in s.attrs.oddities if o.problem == "empty-mask"]) == 7
 
 
 @pytest.mark.parametrize("split, example, rel", [
@@ -252,6 +252,6 @@ def test_skip_bad_imports_the_rest_and_reports(tmp_path):
         assert s.example_ids == ["driving-val-modified/synthetic_3", "driving-val-modified/synthetic_4"]
         ex = s.example(0)
         assert ex.z[0] == 0.0 and ex.d1 == 9.0 and np.all(np.diff(ex.z) > 0)
-        skipped = [o.subject for o in s.attrs.oddities if o.kind == "skipped"]
+        skipped = [o.subject for o in s.attrs.oddities if o.problem == "skipped"]
         assert sorted(skipped) == ["driving-val/synthetic_1", "driving-val/synthetic_2"]
     assert validate(str(out / "driving-val.h5")).ok

@@ -68,7 +68,7 @@ def test_a_mask_store_gives_box_inputs_alike_in_every_framework(tmp_path):
     from odms_data.loaders.torch_loader import StoreDataset
     from odms_data.simulate.generate_store import generate
     from odms_data.simulate.params import GeneratorParams
-    from odms_data.store.boxes import example_boxes
+    from odms_data.store.box_rule import example_boxes
     from odms_data.store.reader import open_store
 
     path = str(tmp_path / "s.zarr")

@@ -10,8 +10,8 @@ from click.testing import CliRunner
 from odms_data.cli import main
 from odms_data.errors import InputError, StoreError
 from odms_data.evaluation.box_ls import box_ls
+from odms_data.store.box_rule import example_boxes
 from odms_data.store.box_store import BoxRows, write_box_store
-from odms_data.store.boxes import example_boxes
 from odms_data.store.format import StoreAttrs, arrays_of
 from odms_data.store.reader import open_store
 from odms_data.store.validate import validate

@@ -48,7 +48,7 @@ class StoreArray(Protocol):
 class Backend(ABC):
     """An open store: named arrays that slice like numpy, plus the `odms` attribute."""
 
-    kind: ClassVar[str]
+    format: ClassVar[str]  # "zarr" or "hdf5"
     # True: workers write whole shards of masks into the store themselves; False: they return the
     # compressed chunks and the one writer stores them (`write_raw_chunk`)
     workers_write_shards: ClassVar[bool]
@@ -85,7 +85,7 @@ class Backend(ABC):
     def write_raw_chunk(self, array: StoreArray, start: int, data: bytes) -> None:
         """Store one already compressed chunk of `array` beginning at row `start` (backends whose
         workers do not write shards)."""
-        raise NotImplementedError(f"{self.kind} workers write their shards themselves")
+        raise NotImplementedError(f"{self.format} workers write their shards themselves")
 
     @abstractmethod
     def check(self) -> None:

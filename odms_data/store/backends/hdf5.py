@@ -52,7 +52,7 @@ class _FailSafeFile(io.FileIO):
 
 
 class Hdf5Backend(Backend):
-    kind = "hdf5"
+    format = "hdf5"
     workers_write_shards = False
 
     def __init__(self, path: str, mode: Mode) -> None:

@@ -52,7 +52,7 @@ def settle_zarr_io() -> None:
 
 
 class ZarrBackend(Backend):
-    kind = "zarr"
+    format = "zarr"
     workers_write_shards = True
 
     def __init__(self, path: str, mode: Mode) -> None:

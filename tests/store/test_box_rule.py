@@ -7,7 +7,7 @@ import pytest
 from _stores import SIZE, make_store
 
 from odms_data.errors import InputError
-from odms_data.store.boxes import example_boxes, frame_boxes, largest_region_rect
+from odms_data.store.box_rule import example_boxes, frame_boxes, largest_region_rect
 from odms_data.store.reader import open_store
 
 
