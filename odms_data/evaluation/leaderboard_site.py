@@ -6,8 +6,8 @@ Every page is rendered by shown_text.html (Jinja2, every value escaped, links ht
 carries a Content-Security-Policy that lets only its own inline script and style run: were a
 value ever to slip through unescaped, a script it carried would not run.
 
-A set's cell shows the entry's mean percent error; the scorer's bootstrap intervals join it
-(`_set_cell`) once entries record them. Ties are neighbours whose All is equal at the precision
+A set's cell shows the entry's mean percent error and, where the entry records it (`score
+--entry` does), its 95 % cluster-bootstrap interval. Ties are neighbours whose All is equal at the precision
 the benchmark prints.
 """
 
@@ -93,7 +93,8 @@ BENCHMARK_PAGE = HEAD + """<h1>{{ title }}</h1>
 <p>Mean percent error, lower is better; All is the unweighted mean of the sets. Click a column
 heading to sort. <span class="computed">computed here</span>: scored by odms-data from a
 predictions file against the stores whose digests are listed; published: as printed in the cited
-work. <span class="tie">=</span> marks a tie: the same All at the precision printed.</p>
+work. [lo, hi] after a mean: its 95 % cluster-bootstrap interval, where the entry records one.
+<span class="tie">=</span> marks a tie: the same All at the precision printed.</p>
 {% for family, rows in tables %}
 <h2>{{ family }} sets</h2>
 {% if rows %}
@@ -148,12 +149,12 @@ ENTRY_PAGE = HEAD + """<h1>{{ e.name }}</h1>
 {% for family, sets in results %}
 <h2>{{ family }} sets</h2>
 <table>
-<thead><tr><th>Set</th><th>Mean %</th><th>Median %</th><th>Mean abs. error (m)</th><th>n</th>
-<th>Store digest</th></tr></thead>
+<thead><tr><th>Set</th><th>Mean %</th><th>95 % interval</th><th>Median %</th>
+<th>Mean abs. error (m)</th><th>n</th><th>Store digest</th></tr></thead>
 <tbody>
 {% for s in sets %}
 <tr><td>{{ s.set }}</td>
-{% for x in (s.percent, s.median, s.abs, s.n) %}<td class="num">{{ x }}</td>{% endfor %}
+{% for x in (s.percent, s.ci, s.median, s.abs, s.n) %}<td class="num">{{ x }}</td>{% endfor %}
 <td><code>{{ s.digest }}</code></td></tr>
 {% endfor %}
 </tbody>
@@ -189,13 +190,18 @@ def entry_page(entry: LeaderboardEntry) -> str:
     return f"{slug}-{hashlib.sha256(key.encode()).hexdigest()[:8]}.html"
 
 
-def _number(x: float | None, decimals: int) -> dict[str, str]:
-    return {"sort": "" if x is None else repr(x), "text": "–" if x is None else f"{x:.{decimals}f}"}
+def _number(x: float | None, decimals: int, ci95: list[float] | None = None) -> dict[str, str]:
+    """A cell sorted by `x`, showing `x [lo, hi]` where it has an interval, else `x` alone."""
+    text = "–" if x is None else f"{x:.{decimals}f}"
+    if x is not None and ci95 is not None:
+        text += f" [{ci95[0]:.{decimals}f}, {ci95[1]:.{decimals}f}]"
+    return {"sort": "" if x is None else repr(x), "text": text}
 
 
 def _set_cell(figures: dict | None, decimals: int) -> dict[str, str]:
-    """A set's cell: its mean percent error (where the scorer's intervals will join it)."""
-    return _number(None if figures is None else figures["percent"], decimals)
+    """A set's cell: its mean percent error, with its 95 % interval where the entry has one."""
+    return _number(None if figures is None else figures["percent"], decimals,
+                   None if figures is None else figures.get("ci95"))
 
 
 def _rows(entries: list[LeaderboardEntry], family: str, benchmark: str) -> list[dict]:
@@ -211,11 +217,16 @@ def _rows(entries: list[LeaderboardEntry], family: str, benchmark: str) -> list[
         rows.append({
             "rank": rank, "tie": tie, "all": shown, "name": e.name, "page": entry_page(e), "n": e.n_obs,
             "training": (e.training_data or "–") + (", radial" if e.radial_input else ""),
-            "cells": [_set_cell(fam.get(d), b.decimals) for d in b.domains] + [_number(total, b.decimals)],
+            "cells": [_set_cell(fam.get(d), b.decimals) for d in b.domains]
+            + [_number(total, b.decimals, fam.get("all_ci95"))],
             "figures": e.figures, "computed": e.figures == "computed",
             "stores": sorted((e.scored or {}).get("stores", {}).items()),
         })
     return rows
+
+
+def _interval(ci95: list[float] | None) -> str:
+    return "–" if ci95 is None else f"[{ci95[0]}, {ci95[1]}]"
 
 
 def _entry_sets(entry: LeaderboardEntry) -> list[tuple[str, list[dict]]]:
@@ -229,12 +240,13 @@ def _entry_sets(entry: LeaderboardEntry) -> list[tuple[str, list[dict]]]:
         if not fam:
             continue
         sets = [{"set": d.replace("_", " "), "percent": fam[d]["percent"],
-                 "median": fam[d].get("median_percent", "–"), "abs": fam[d].get("abs_m", "–"),
+                 "ci": _interval(fam[d].get("ci95")), "median": fam[d].get("median_percent", "–"),
+                 "abs": fam[d].get("abs_m", "–"),
                  "n": fam[d].get("n", "–"), "digest": digest.get((d, family), "–")}
                 for d in b.domains if d in fam]
         if "all" in fam:
             none = dict.fromkeys(("median", "abs", "n", "digest"), "–")
-            sets.append({"set": "All", "percent": fam["all"], **none})
+            sets.append({"set": "All", "percent": fam["all"], "ci": _interval(fam.get("all_ci95")), **none})
         out.append((family, sets))
     return out
 
