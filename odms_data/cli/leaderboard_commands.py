@@ -27,8 +27,12 @@ DIR_HELP = ("Also rank the entries in this folder, e.g. the one `score --entry` 
               help="Write the leaderboard as a static site to this folder instead: a page per benchmark "
                    "and per entry, self-contained (no external script, font or style).")
 @click.option("--overwrite", is_flag=True, help="Replace an earlier --html site.")
+@click.option("--data", multiple=True, type=click.Path(),
+              help="With --html: folder of ground-truth stores, or one store (repeatable; as for `score`); "
+                   "neighbours that both ship predictions then tie when `compare` cannot separate them, "
+                   "and their pages show their breakdown plots.")
 @click.pass_context
-def leaderboard(ctx, family, metric, folders, benchmark, as_json, site, overwrite):
+def leaderboard(ctx, family, metric, folders, benchmark, as_json, site, overwrite, data):
     """Print the leaderboard as markdown, sorted by All (lowest error first): the entries shipped
     with odms-data and those in each --dir.
 
@@ -39,6 +43,7 @@ def leaderboard(ctx, family, metric, folders, benchmark, as_json, site, overwrit
       odms-data leaderboard --family val --metric abs
       odms-data leaderboard --benchmark odmd
       odms-data leaderboard --dir leaderboard --html site/   # then open site/index.html
+      odms-data leaderboard --dir leaderboard --html site/ --data ./odms-stores  # ties by compare
       odms-data leaderboard verify --data ./odms-stores
     """
     if ctx.invoked_subcommand:
@@ -48,11 +53,15 @@ def leaderboard(ctx, family, metric, folders, benchmark, as_json, site, overwrit
 
     if site and as_json:
         raise InputError("give at most one of --html and --json")
+    if data and not site:
+        raise InputError("--data is for --html (ties decided by compare); give --html DIR too")
     pairs = entry_files(shipped_folder(), *folders)
     if site:
         from ..evaluation.leaderboard_site import write_site
+        from ..evaluation.leaderboard_verify import predictions_of
 
-        pages = write_site([e for _, e in pairs], site, overwrite=overwrite)
+        shipped = {e.name: p for e, p in ((e, predictions_of(path)) for path, e in pairs) if p}
+        pages = write_site([e for _, e in pairs], site, overwrite=overwrite, predictions=shipped, data=data)
         click.echo(f"wrote {site}: {len(pages)} pages (open {site}/index.html)", err=True)
         return
     entries = [e for _, e in pairs if e.benchmark == benchmark]

@@ -71,6 +71,11 @@ def _paired(a: ScoreReport, b: ScoreReport) -> None:
                              "pairs them example by example")
 
 
+def all_name(benchmark: str, title: str, family: str) -> str:
+    """The name a comparison gives a benchmark's All over `family`."""
+    return f"All ({family})" if benchmark == "odms" else f"{title} All ({family})"
+
+
 def compare(a: ScoreReport, b: ScoreReport) -> Comparison:
     """The paired comparison of two scores of the same examples (InputError otherwise)."""
     _paired(a, b)
@@ -92,7 +97,7 @@ def compare(a: ScoreReport, b: ScoreReport) -> Comparison:
     for x, y in zip(a.alls, b.alls, strict=True):
         observed = x.mean_percent_error - y.mean_percent_error
         parts = [d for d in splits if d.name in x.splits]
-        name = f"All ({x.family})" if x.benchmark == "odms" else f"{x.title} All ({x.family})"
+        name = all_name(x.benchmark, x.title, x.family)
         alls.append(Difference(
             name, sum(d.n for d in parts), sum(d.clusters for d in parts), x.mean_percent_error,
             y.mean_percent_error, interval(np.mean([samples[sp] for sp in x.splits], axis=0)),

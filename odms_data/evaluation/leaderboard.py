@@ -31,6 +31,7 @@ from .scoring import ScoreReport
 
 # the benchmarks with a table of their own: every record of protocol.py
 BENCHMARKS = dict(PROTOCOL_BENCHMARKS)
+ALL_KEYS = ("all", "all_ci95")  # a family's All and its interval, beside its sets
 
 
 @cache
@@ -66,12 +67,29 @@ def _all_problem(fam: dict, family: str, b: Benchmark) -> str | None:
     return None
 
 
+def _interval_problem(fam: dict, family: str, computed: bool) -> str | None:
+    """Why an interval of `fam` does not hold: lo <= hi always, and lo <= mean <= hi when the
+    entry was computed here (both from one score)."""
+    pairs = [(d, v["ci95"], v["percent"]) for d, v in fam.items() if d not in ALL_KEYS and "ci95" in v]
+    if "all_ci95" in fam:
+        if "all" not in fam:
+            return f"results/{family}/all_ci95: an interval needs its All"
+        pairs.append(("all", fam["all_ci95"], fam["all"]))
+    for d, (lo, hi), mean in pairs:
+        where = f"results/{family}/{d}" + ("_ci95" if d == "all" else "/ci95")
+        if lo > hi:
+            return f"{where}: [{lo}, {hi}] is not an interval (lo > hi)"
+        if computed and not lo <= mean <= hi:
+            return f"{where}: [{lo}, {hi}] does not hold its mean {mean}"
+    return None
+
+
 def _stores_problem(entry: dict, b: Benchmark) -> str | None:
     """Why a computed entry's store digests are not those of the split manifests of its sets."""
     if "scored" not in entry:
         return "scored: a computed entry records the stores it was scored against"
     stores = entry["scored"]["stores"]
-    sets = [(d, f) for f, fam in entry["results"].items() for d in fam if d != "all"]
+    sets = [(d, f) for f, fam in entry["results"].items() for d in fam if d not in ALL_KEYS]
     expected = {b.split(d, f) for d, f in sets} & set(split_names())
     if set(stores) != expected:
         odd = sorted(set(stores) ^ expected)[0]
@@ -90,10 +108,11 @@ def _problem(entry: dict) -> str | None:
     if entry["link"] is not None and web_link(entry["link"]) is None:
         return f"link {entry['link']!r}: not an http(s) address"
     for family, fam in entry["results"].items():
-        other = next((d for d in fam if d != "all" and d not in b.domains), None)
+        other = next((d for d in fam if d not in ALL_KEYS and d not in b.domains), None)
         if other:
             return f"results/{family}/{other}: not a set of {b.title}; an entry spans one benchmark"
-        if problem := _all_problem(fam, family, b):
+        if problem := _all_problem(fam, family, b) or _interval_problem(fam, family,
+                                                                         entry["figures"] == "computed"):
             return problem
     return _stores_problem(entry, b) if entry["figures"] == "computed" else None
 
@@ -112,8 +131,8 @@ def check_entry(entry: Any, where: str) -> dict:
 @dataclass(frozen=True)
 class LeaderboardEntry:
     """One method's entry (schemas/leaderboard-entry.schema.json), checked on construction.
-    `results[family][domain]` holds percent (and abs_m, median_percent, n); `results[family]["all"]`
-    the All as printed or computed."""
+    `results[family][domain]` holds percent (and abs_m, median_percent, n, ci95: [lo, hi]);
+    `results[family]["all"]` the All as printed or computed, `["all_ci95"]` its interval."""
 
     name: str
     method: str
@@ -253,6 +272,12 @@ def render_markdown(entries: list[LeaderboardEntry], family: str = "test", metri
     return markdown_join("\n", lines)
 
 
+def _ci95(key: str, intervals: dict[str, tuple[float, float]]) -> dict[str, list[float]]:
+    """{key: [lo, hi]} of the mean percent error's interval, rounded as the mean is; {} without one."""
+    ci = intervals.get("mean_percent_error")
+    return {} if ci is None else {key: [round(ci[0], 4), round(ci[1], 4)]}
+
+
 def entry_from_report(
     report: ScoreReport, name: str, *, method: str | None = None, citation: str | None = None,
     link: str | None = None, n_obs: int | None = None, predictions_sha256: str = "",
@@ -281,6 +306,7 @@ def entry_from_report(
         results.setdefault(fam, {})[d] = {
             "percent": round(s.mean_percent_error, 4), "abs_m": round(s.mean_abs_error_m, 6),
             "median_percent": round(s.median_percent_error, 4), "n": s.n,
+            **_ci95("ci95", s.ci95),
         }
     if not results:
         raise InputError(
@@ -289,7 +315,7 @@ def entry_from_report(
         )
     for a in report.alls:
         if a.benchmark == benchmark:
-            results[a.family]["all"] = round(a.mean_percent_error, 4)
+            results[a.family].update(all=round(a.mean_percent_error, 4), **_ci95("all_ci95", a.ci95))
     return LeaderboardEntry(
         name=one_line(name), method=method or one_line(name), n_obs=n_obs, training_data=None,
         radial_input=None, figures="computed", citation=citation, link=link,

@@ -15,7 +15,9 @@ from pathlib import Path
 
 from ..errors import OdmsError
 from .evaluate import Evaluation
-from .leaderboard import LeaderboardEntry, entry_from_report
+from .leaderboard import ALL_KEYS, LeaderboardEntry, entry_from_report
+
+ALL_LABELS = {"all": "All", "all_ci95": "All ci95"}
 
 
 @dataclass(frozen=True)
@@ -35,16 +37,17 @@ def predictions_of(entry_file: Path) -> Path | None:
 
 
 def _compare(entry: LeaderboardEntry, again: LeaderboardEntry) -> tuple[list[str], int]:
+    """Each figure of `entry` (means, intervals, store digests) that `again` does not repeat."""
     out, count = [], 0
     for family, sets in entry.results.items():
         now_sets = again.results.get(family, {})
         for d, figures in sets.items():
-            pairs = [("all", figures, now_sets.get(d))] if d == "all" else [
+            pairs = [(d, figures, now_sets.get(d))] if d in ALL_KEYS else [
                 (k, v, (now_sets.get(d) or {}).get(k)) for k, v in figures.items()]
             for what, was, now in pairs:
                 count += 1
                 if was != now:
-                    label = f"{family} All" if d == "all" else f"{family} {d} {what}"
+                    label = f"{family} {ALL_LABELS[d]}" if d in ALL_KEYS else f"{family} {d} {what}"
                     out.append(f"{label}: the entry says {was}, its predictions now give {now}")
     stores, now_stores = (entry.scored or {}).get("stores", {}), (again.scored or {}).get("stores", {})
     out += [f"store {s}: the entry was scored against {stores.get(s)}, now {now_stores.get(s)}"

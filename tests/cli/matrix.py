@@ -128,6 +128,7 @@ ROLES: dict[str, tuple[str, str]] = {  # key -> (kind, suffix of its base value 
     "info stores": ("store", ""), "validate stores": ("store", ""),
     "leaderboard folders": ("entries", ""), "leaderboard site": (OUT, ""),
     "leaderboard verify folders": ("entries", ""), "leaderboard verify data": ("store", ""),
+    "leaderboard data": ("store", ""),
     "predict run": ("run", ""), "predict data": ("store", ""), "predict output": (OUT, ".csv"),
     "predict checkpoint": ("checkpoint", ""), "predict device": ("text", ""),
     "score predictions": ("predictions", ""), "score data": ("store", ""), "score plot": (OUT, ".png"),

@@ -102,3 +102,50 @@ def test_links_are_parsed_not_pattern_matched(tmp_path, link):
     entry = _shipped("dbox.json")
     entry["link"] = link
     assert "link " in _refused(tmp_path, entry) and "not an http(s) address" in _refused(tmp_path, entry)
+
+
+def _test_report(intervals: bool) -> ScoreReport:
+    """A complete score of ODMS's four test sets, with the split manifests' digests."""
+    from odms_data.evaluation.metrics import all_scores
+    from odms_data.store.manifests import load_manifest
+
+    scores = [SplitScore(f"{d}-test", d, 10, 10, 10.0 + i, 9.0, 0.1)
+              for i, d in enumerate(("robot", "driving", "normal", "perturb"))]
+    for s in scores if intervals else ():
+        s.ci95 = {"mean_percent_error": (s.mean_percent_error - 1.23456, s.mean_percent_error + 2.0)}
+    alls = all_scores(scores)
+    for a in alls if intervals else ():
+        a.ci95 = {"mean_percent_error": (10.0, 13.5)}
+    return ScoreReport("p.csv", 40, scores, alls, False,
+                       digests={s.split: load_manifest(s.split).digest for s in scores})
+
+
+def test_score_entry_records_each_interval_beside_its_mean():
+    test = entry_from_report(_test_report(True), "Mine").results["test"]
+    assert test["robot"]["ci95"] == [8.7654, 12.0] and test["perturb"]["ci95"] == [11.7654, 15.0]
+    assert test["all"] == 11.5 and test["all_ci95"] == [10.0, 13.5]
+    bare = entry_from_report(_test_report(False), "Mine").results["test"]
+    assert "ci95" not in bare["robot"] and "all_ci95" not in bare
+
+
+@pytest.mark.parametrize(("where", "interval", "why"), [
+    ("robot", [20.0, 21.0], "results/test/robot/ci95: [20.0, 21.0] does not hold its mean"),
+    ("robot", [19.0, 18.0], "results/test/robot/ci95: [19.0, 18.0] is not an interval"),
+    ("all_ci95", [1.0, 2.0], "results/test/all_ci95: [1.0, 2.0] does not hold its mean"),
+])
+def test_a_computed_interval_must_hold_its_mean(tmp_path, where, interval, why):
+    entry = _shipped("box_ls.json")
+    if where == "all_ci95":
+        entry["results"]["test"]["all_ci95"] = interval
+    else:
+        entry["results"]["test"][where]["ci95"] = interval
+    assert why in _refused(tmp_path, entry)
+
+
+def test_a_published_interval_need_not_hold_the_rounded_mean_but_must_be_one(tmp_path):
+    entry = _shipped("dbox.json")
+    entry["results"]["test"]["robot"]["ci95"] = [11.6, 13.0]  # a paper's interval of unrounded means
+    (tmp_path / "e.json").write_text(json.dumps(entry))
+    assert load_entries(tmp_path)[0].results["test"]["robot"]["ci95"] == [11.6, 13.0]
+    entry["results"]["test"]["robot"]["ci95"] = [13.0, 11.6]
+    assert "is not an interval (lo > hi)" in _refused(tmp_path, entry)
