@@ -19,8 +19,8 @@ for all frames at once, on canvases grouped by size:
   Ay[:, rows] @ canvas @ Ax[:, cols]^T with the weight matrices taken from cv2 itself (resizing
   an identity matrix), in float32 at full precision (no TF32).
 
-No GPU was available where this was written: it is tested on CPU
-(tests/simulate/test_torch_render.py) and benchmarks/torch_render.py measures it on any device.
+The tests run it on CPU (tests/simulate/test_torch_render.py); benchmarks/torch_render.py
+measures it on any device.
 """
 
 from __future__ import annotations
