@@ -4,11 +4,10 @@ from __future__ import annotations
 
 import click
 
-from ..protocol import SPLIT_FAMILIES
+from ..protocol import BENCHMARKS, SPLIT_FAMILIES
 from . import echo_json, echo_text
 from .progress import Bars
 
-BENCHMARK_NAMES = ("odms", "odms-detection", "odmd")  # evaluation.leaderboard.BENCHMARKS, kept light
 DIR_HELP = ("Also rank the entries in this folder, e.g. the one `score --entry` wrote yours to "
             "(repeatable; the shipped entries are always in).")
 
@@ -19,7 +18,7 @@ DIR_HELP = ("Also rank the entries in this folder, e.g. the one `score --entry` 
 @click.option("--metric", type=click.Choice(["percent", "abs"]), default="percent", show_default=True,
               help="Mean percent error or mean absolute error (cm; driving in m).")
 @click.option("--dir", "folders", type=click.Path(file_okay=False), multiple=True, help=DIR_HELP)
-@click.option("--benchmark", type=click.Choice(BENCHMARK_NAMES), default="odms", show_default=True,
+@click.option("--benchmark", type=click.Choice(tuple(BENCHMARKS)), default="odms", show_default=True,
               help="ODMS's table, ODMS-detection's (ODMD's boxes of the ODMS sets) or ODMD's (its sets "
                    "normal, perturb motion, perturb detection, robot).")
 @click.option("--json", "as_json", is_flag=True, help="Print the ranked entries as JSON (all metrics).")
