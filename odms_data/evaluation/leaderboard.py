@@ -22,15 +22,12 @@ from typing import Any
 from .. import safe_json
 from .._version import __version__
 from ..errors import InputError
-from ..protocol import BENCHMARKS as PROTOCOL_BENCHMARKS
-from ..protocol import SPLIT_FAMILIES, Benchmark
+from ..protocol import BENCHMARKS, SPLIT_FAMILIES, Benchmark
 from ..resources import resource_dir
 from ..shown_text import Markdown, markdown, markdown_join, markdown_link, one_line, web_link
 from ..store.manifests import load_manifest, split_names
 from .scoring import ScoreReport
 
-# the benchmarks with a table of their own: every record of protocol.py
-BENCHMARKS = dict(PROTOCOL_BENCHMARKS)
 ALL_KEYS = ("all", "all_ci95")  # a family's All and its interval, beside its sets
 
 

@@ -23,12 +23,12 @@ from pathlib import Path
 from .._version import __version__
 from ..errors import InputError
 from ..outputs import OutputType, atomic_folder
-from ..protocol import SPLIT_FAMILIES
+from ..protocol import BENCHMARKS, SPLIT_FAMILIES
 from ..shown_text import html
 from .compare import all_name, compare
 from .error_plots import plot_errors
 from .evaluate import Evaluation
-from .leaderboard import BENCHMARKS, LeaderboardEntry, family_all, name_key, ranked
+from .leaderboard import LeaderboardEntry, family_all, name_key, ranked
 from .scoring import ScoreReport
 
 GENERATOR = f"odms-data {__version__}"
