@@ -280,7 +280,7 @@ def test_no_child_process_imports_from_the_folder_a_command_runs_in(tmp_path):
     """A `multiprocessing.py` in the working folder runs in no process odms-data starts: the
     resource tracker, the fork server, pool workers (generate, import) and DataLoader workers
     (train, predict)."""
-    from tests.importers.test_import_recording import write_recording
+    from importers.test_import_recording import write_recording
 
     rec = write_recording(tmp_path / "rec")
     work = tmp_path / "work"
