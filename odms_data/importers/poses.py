@@ -7,6 +7,7 @@ and conventions: schemas/RECORDING.md.
 
 from __future__ import annotations
 
+import io
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -14,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..inputs import open_input
 from ..pickles import load_npy
 
 DIRECTIONS = ("camera-to-world", "world-to-camera")
@@ -124,7 +126,7 @@ def _text_lines(path: Path) -> list[tuple[int, str]]:
     with each line's length and the count of lines bounded."""
     rows = []
     try:
-        with path.open(encoding="utf-8") as f:
+        with io.TextIOWrapper(open_input(path, "a poses file"), encoding="utf-8") as f:
             for i in range(1, MAX_LINES + 2):
                 line = f.readline(MAX_LINE_CHARS + 1)
                 if not line:
