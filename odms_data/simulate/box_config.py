@@ -30,6 +30,8 @@ refused (the authors' files use none).
 from __future__ import annotations
 
 import difflib
+import os
+import stat
 from dataclasses import asdict
 from typing import Any
 
@@ -96,7 +98,10 @@ def _read(path: str) -> dict[Any, Any]:
     """The mapping of the YAML file at `path`, bounded before it is built."""
     yaml = optional("yaml", "odms-data generate --config")
     try:
-        with open(path, "rb") as f:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)  # a FIFO is not waited on
+        with os.fdopen(fd, "rb") as f:
+            if not stat.S_ISREG(os.fstat(fd).st_mode):
+                raise InputError(f"{path}: not a regular file, not a generator config")
             raw = f.read(MAX_BYTES + 1)
     except OSError as e:
         raise InputError(f"{path}: cannot be read ({e.strerror or e})") from None

@@ -6,6 +6,7 @@ authors' files that each names; the project does not ship theirs."""
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import replace
 from pathlib import Path
 
@@ -183,3 +184,12 @@ def test_config_needs_boxes_and_boxes_needs_a_preset_or_a_config(tmp_path):
     assert "--boxes takes a preset" in _refusal(tmp_path, ["--boxes"])
     with pytest.raises(InputError, match="unknown box preset"):
         read_box_config([config], "odmx")
+
+
+def test_what_is_not_a_regular_file_is_refused_without_waiting(tmp_path):
+    fifo = tmp_path / "fifo.yaml"
+    os.mkfifo(fifo)
+    assert "not a regular file" in _refusal(tmp_path, ["--boxes", "odmd", "--config", str(fifo)])
+    assert "Is a directory" in _refusal(tmp_path, ["--boxes", "odmd", "--config", str(tmp_path)])
+    missing = str(tmp_path / "none.yaml")
+    assert "cannot be read" in _refusal(tmp_path, ["--boxes", "odmd", "--config", missing])
