@@ -85,7 +85,7 @@ def _check_key(path: str, key: object) -> None:
         raise InputError(f"{path}: key {key!r} is not a setting's name")
     if key in DERIVED:
         raise InputError(f"{path}: {key} is not a setting: the authors' generator derives it from "
-                         f"{DERIVED[key]} (set those instead)")
+                         f"{DERIVED[key]}, which a config sets")
     if key not in (*box_setting_names(), *TEXT_KEYS):
         close = difflib.get_close_matches(key, box_setting_names(), n=1, cutoff=0.6)
         hint = f" (did you mean {close[0]}?)" if close else ""
