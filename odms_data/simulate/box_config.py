@@ -37,7 +37,7 @@ from typing import Any
 
 from ..errors import InputError
 from ..extras import optional
-from .box_examples import BOX_PRESETS, BoxParams, box_setting_names
+from .box_examples import BOX_PRESETS, BoxParams, box_setting_names, shown
 
 MAX_BYTES = 64 * 2**10  # the authors' files are about 300 bytes
 MAX_NESTING = 4  # a file is a mapping of scalars and lists of numbers: 2 levels
@@ -82,14 +82,14 @@ def read_box_config(paths: list[str], preset: str | None = None) -> BoxParams:
 
 def _check_key(path: str, key: object) -> None:
     if not isinstance(key, str):
-        raise InputError(f"{path}: key {key!r} is not a setting's name")
+        raise InputError(f"{path}: key {shown(key)} is not a setting's name")
     if key in DERIVED:
         raise InputError(f"{path}: {key} is not a setting: the authors' generator derives it from "
                          f"{DERIVED[key]}, which a config sets")
     if key not in (*box_setting_names(), *TEXT_KEYS):
         close = difflib.get_close_matches(key, box_setting_names(), n=1, cutoff=0.6)
         hint = f" (did you mean {close[0]}?)" if close else ""
-        raise InputError(f"{path}: unknown key {key!r}{hint}; the box generator's keys are "
+        raise InputError(f"{path}: unknown key {shown(key)}{hint}; the box generator's keys are "
                          f"{', '.join((*AUTHORS_KEYS, *TEXT_KEYS))} (the authors') and rotation "
                          "(odms-data's)")
 

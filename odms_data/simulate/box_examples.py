@@ -115,6 +115,12 @@ _KINDS: dict[str, tuple[type, int | None]] = {
 }
 
 
+def shown(value: object, limit: int = 60) -> str:
+    """`value` as a message shows it: its repr (a tuple as a list), cut to about `limit` characters."""
+    text = repr(list(value) if isinstance(value, tuple) else value)
+    return text if len(text) <= limit else text[:limit] + "..."
+
+
 def _value_problem(p: BoxParams) -> str | None:
     """What is wrong with the type of a setting of `p`, naming it; None when nothing."""
     for name, (kind, count) in _KINDS.items():
@@ -131,7 +137,7 @@ def _value_problem(p: BoxParams) -> str | None:
             what = {bool: "true or false", int: "a whole number", float: "a number"}[kind]
             if count is not None:
                 what = f"a list of {count} {'whole numbers' if kind is int else 'numbers'}"
-            return f"{name} must be {what}, got {list(value) if isinstance(value, tuple) else value!r}"
+            return f"{name} must be {what}, got {shown(value)}"
     return None
 
 
@@ -156,7 +162,7 @@ def _range_problem(p: BoxParams) -> str | None:
     for name, ok, allowed in checks:
         if not ok:
             value = getattr(p, name)
-            return f"{name} must be {allowed}, got {list(value) if isinstance(value, tuple) else value!r}"
+            return f"{name} must be {allowed}, got {shown(value)}"
     if not 0 <= p.rotation <= p.max_rotation():
         return (f"rotation must be from 0 to {p.max_rotation():g} degrees with this camera (at most "
                 f"{MAX_ROTATION:g}, and no turn that could put an object behind it), got {p.rotation!r}")

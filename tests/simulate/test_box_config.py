@@ -193,3 +193,11 @@ def test_what_is_not_a_regular_file_is_refused_without_waiting(tmp_path):
     assert "Is a directory" in _refusal(tmp_path, ["--boxes", "odmd", "--config", str(tmp_path)])
     missing = str(tmp_path / "none.yaml")
     assert "cannot be read" in _refusal(tmp_path, ["--boxes", "odmd", "--config", missing])
+
+
+def test_a_long_value_or_key_is_shown_cut(tmp_path):
+    for text, start in (("std_dev: " + "9" * 60_000 + "x", "std_dev must be a number, got '999"),
+                        ("? " + "k" * 60_000 + "\n: 1", "unknown key 'kkk")):  # a long key is explicit
+        config, = _files(tmp_path, text)
+        out = _refusal(tmp_path, ["--boxes", "odmd", "--config", config])
+        assert start in out and "..." in out and len(out) < 500
