@@ -83,7 +83,7 @@ def _split_recipe(split_name: str, given: list[str]):
               default=None, help="Write a store of boxes (ODMD's kind) from the box generator with this "
                    "preset, or with the settings of --config, rather than masks; takes -n, --seed, --name, "
                    "-o, --format, --workers, --examples-per-shard and --scheduler.")
-@click.option("--config", "configs", multiple=True, metavar="FILE",
+@click.option("--config", "configs", multiple=True, type=click.Path(), metavar="FILE",
               help="With --boxes: an ODMD generator config (config/data_gen/*.yaml, config/camera/*.yaml; "
                    "and rotation: degrees, odms-data's), applied in order over the --boxes preset, if any "
                    "(repeatable; without a preset the files give every key).")
