@@ -128,3 +128,15 @@ def test_rotation_is_bounded_by_the_camera():
         replace(ODMD, rotation=27.2)
     with pytest.raises(InputError, match="rotation must be a number"):
         replace(ODMD, rotation=float("inf"))
+
+
+def test_a_turning_example_with_perturbations_depends_only_on_seed_and_index():
+    """Shuffled examples' donors turn about their own axes: still nothing of the batch counts."""
+    p = replace(ODMD, rotation=5.0, shuffle=0.5)
+    whole = sample_box_examples(p, 3, range(60))
+    alone = [sample_box_examples(p, 3, [i]) for i in range(60)]
+    for key in whole:
+        np.testing.assert_array_equal(np.concatenate([a[key] for a in alone]), whole[key])
+    straight = sample_box_examples(replace(p, rotation=0.0), 3, range(60))
+    np.testing.assert_array_equal(whole["move"], straight["move"])
+    assert not np.allclose(whole["boxes"][:, 0], straight["boxes"][:, 0])
