@@ -113,7 +113,7 @@ ROLES: dict[str, tuple[str, str]] = {  # key -> (kind, suffix of its base value 
     "export stores": ("store", ""), "export output": (OUT, ""), "export name": ("text", ""),
     "export licence": ("text", ""),
     "compare a": ("predictions", ""), "compare b": ("predictions", ""), "compare data": ("store", ""),
-    "generate split_name": ("split", ""), "generate params": ("text", ""),
+    "generate split_name": ("split", ""), "generate params": ("text", ""), "generate configs": ("config", ""),
     "generate store_split": ("text", ""),
     "generate output": (OUT, ".zarr"), "generate scheduler": ("url", ""),
     "import odmd data_dir": ("pickles", ""), "import odmd out_dir": (OUT, ""),
@@ -244,7 +244,7 @@ def any_input(kind: str) -> list[Value]:
     """What every input path gets, whatever it names."""
     good = {"store": "tiny.zarr", "predictions": "p.csv", "run": "run", "checkpoint": "ck.pt",
             "pickles": "odmd", "release": "release", "recording": "rec", "positions": "positions.csv",
-            "poses": "poses.txt", "synthia": "synthia", "entries": "entries"}[kind]
+            "poses": "poses.txt", "synthia": "synthia", "entries": "entries", "config": "turn.yaml"}[kind]
     return [
         Value("missing", ("missing.x",)),
         Value("an empty folder", ("empty",), lambda cwd: (cwd / "empty").mkdir()),
@@ -527,13 +527,27 @@ def entries_values() -> list[Value]:
     return [Value(f"entries: {n}", ("entries",), _write("entries/e.json", c)) for n, c in contents.items()]
 
 
+def config_values() -> list[Value]:
+    pairs = zip("abcdefgh", "bcdefghi", strict=True)
+    laughs = "a: &a [x, x]\n" + "".join(f"{c}: &{c} [*{p}, *{p}]\n" for p, c in pairs)
+    contents = {
+        "binary noise": bytes(range(256)) * 4, "empty": b"", "a list": b"- 1\n- 2\n",
+        "nested deep": ("a: " + "[" * 30_000 + "]" * 30_000).encode(), "1 MB": b"a: " + b"x" * 2**20,
+        "an alias bomb": laughs.encode(), "a python tag": b"fx: !!python/object/apply:os.system [ls]\n",
+        "an unknown key": b"num_obs: 10\n", "a derived key": b"z_range: 0.45\n",
+        "rotation 1e400": b"rotation: 1e400\n", "num_pos 10^9": b"num_pos: 1000000000\n",
+    }
+    return [Value(f"config: {n}", ("c.yaml",), _write("c.yaml", c)) for n, c in contents.items()]
+
+
 REPO = HERE.parents[1]
-REBASE = {"checkpoint": (("run", None), ("model", "odn-l")), "poses": (("positions", None),)}
+REBASE = {"checkpoint": (("run", None), ("model", "odn-l")), "poses": (("positions", None),),
+          "config": (("params", None), ("box_preset", "odmd"))}
 INPUTS: dict[str, Callable[[], list[Value]]] = {
     "store": store_values, "predictions": predictions_values, "positions": positions_values,
     "pickles": pickles_values, "run": run_values, "poses": poses_values,
     "recording": recording_values, "release": release_values, "entries": entries_values,
-    "synthia": list,
+    "synthia": list, "config": config_values,
 }
 
 
@@ -787,6 +801,8 @@ class Fixtures:
             (path / "config.json").write_text(json.dumps({"config": config, "odms_data": "0"}))
             torch.save({"iteration": 1, "model": odn.build(variant("odn-l"), 3, False).state_dict()},
                        path / "best.pt")
+        elif name == "turn.yaml":
+            path.write_text("rotation: 2\n")
         elif name == "photos":
             path.mkdir()
             for i in range(3):
