@@ -114,6 +114,19 @@ def test_windows_past_max_rotation_are_listed_and_a_larger_limit_keeps_them(tmp_
     assert said["windows"] == 105 - len(turning_windows(1.5))
 
 
+def test_an_unlabelled_recording_gets_depths_and_no_score(tmp_path, scene):
+    code, _, stderr = odms("import", "recording", scene / "masks", "--poses", scene / "poses.txt",
+                           "--windows", "10", "-o", tmp_path / "u.zarr", "--workers", "1")
+    assert code == 0, stderr
+    code, stdout, _ = odms("estimate", tmp_path / "u.zarr", "--method", "vosde", "-o", tmp_path / "u")
+    assert code == 0 and "mean %" not in stdout and "wrote " in stdout
+    frames = rows(tmp_path / "u" / "frames.csv")
+    assert all(r["true_depth"] == "" for r in frames) and sum(bool(r["depth_median"]) for r in frames) == 31
+    code, stdout, _ = odms("estimate", tmp_path / "u.zarr", "--method", "vosde", "-o", tmp_path / "v",
+                           "--json")
+    assert code == 0 and json.loads(stdout)["score"] is None
+
+
 def _same_as_predict(tmp_path: Path, store: Path, estimate: list[str], predict: list[str]) -> None:
     code, _, stderr = odms("estimate", store, *estimate, "-o", tmp_path / "est", "--workers", "0")
     assert code == 0, stderr
