@@ -83,6 +83,9 @@ def test_estimate_recovers_the_rendered_depth(tmp_path, scene, store, method):
     truth = [float(line.split(",")[1]) for line in (scene / "truth.csv").read_text().splitlines()[1:]]
     assert [float(r["true_depth"]) for r in frames] == pytest.approx(sorted(truth)[: FRAMES - 9], abs=1e-9)
     examples = rows(out / "examples.csv")  # the score printed is that of examples.csv
+    assert odms("baseline", method, store, "-o", tmp_path / "b.csv")[0] == 0  # n_obs 10: every observation
+    assert [(e["example_id"], float(e["d1"])) for e in examples] == [
+        (b["example_id"], float(b["d1"])) for b in rows(tmp_path / "b.csv")]
     by_start: dict[int, list[float]] = {}
     for e in examples:
         by_start.setdefault(int(e["example_id"].rsplit("-", 1)[1]), []).append(float(e["d1"]))
