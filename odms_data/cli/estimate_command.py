@@ -81,15 +81,11 @@ def _network(path: str, method: str, checkpoint: str, n_obs: int | None, workers
     return d1, f"{config.model}, {checkpoint}{best}"
 
 
-def _score(store: str, examples: Path, as_json: bool) -> dict | None:
-    """The score of the estimates against the store's labels, printed unless `as_json`; None
-    when the store has none."""
+def _score(store: str, examples: Path, as_json: bool) -> dict:
+    """The score of the estimates against the store's labels, printed unless `as_json`."""
     from ..evaluation.evaluate import Evaluation
     from ..evaluation.score_tables import render_text
 
-    with open_store(store) as s:
-        if np.isnan(s.d1).all():
-            return None
     _, report = Evaluation([store]).score(examples, intervals=False)
     if not as_json:
         echo_text(render_text(report), nl=False)
@@ -141,6 +137,7 @@ def estimate(store, method, checkpoint, n_obs, output, plot, workers, device, ov
     _check_options(method, checkpoint, n_obs, output, plot, overwrite)
     with open_store(str(store)) as s:
         split, ids, skipped = s.attrs.split, s.example_ids, skipped_details(s.attrs.oddities)
+        labelled = s.attrs.counts["labelled"] > 0
         if method in NETWORKS:
             d1, how = _network(str(store), method, checkpoint, n_obs, workers, device)
             unsolvable = np.zeros(len(d1), bool)
@@ -152,7 +149,7 @@ def estimate(store, method, checkpoint, n_obs, output, plot, workers, device, ov
             how = method
         depths = frame_depths(s, d1, unsolvable)
     write_estimate(output, split, ids, d1, depths, plot=plot, title=f"{split}: {how}", overwrite=overwrite)
-    report = _score(str(store), Path(output) / EXAMPLES, as_json)
+    report = _score(str(store), Path(output) / EXAMPLES, as_json) if labelled else None
     frames, solved = len(depths.windows), int((depths.windows > 0).sum())
     if as_json:
         echo_json({"output": output, "examples": str(Path(output) / EXAMPLES),
