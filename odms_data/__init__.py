@@ -31,7 +31,7 @@ _EXPORTS = {
     # ODMD's: examples of boxes, read from any store, generated, imported, loaded; its baseline
     "BoxExamples": "store.box_rule", "example_boxes": "store.box_rule",
     "generate_box_store": "simulate.generate_box_store", "import_odmd": "importers.odmd",
-    "GeneratedBoxExamples": "loaders.box_sources", "StoreBoxExamples": "loaders.box_sources",
+    "GeneratedBoxExamples": "loaders.sources", "StoreBoxExamples": "loaders.sources",
     "box_ls": "evaluation.box_ls",
 }
 __all__ = [
@@ -48,7 +48,7 @@ if TYPE_CHECKING:
     from .importers.recording import import_recording
     from .importers.release import import_release
     from .importers.synthia import import_synthia
-    from .loaders.box_sources import GeneratedBoxExamples, StoreBoxExamples
+    from .loaders.sources import GeneratedBoxExamples, StoreBoxExamples
     from .simulate.generate_box_store import generate_box_store
     from .simulate.generate_store import generate
     from .simulate.params import PRESETS, GeneratorParams, preset

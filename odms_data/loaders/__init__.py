@@ -7,10 +7,9 @@ TensorFlow and are imported only when asked for (named so that none shadows its 
 package). See docs/LOADERS.md.
 """
 
-from .box_sources import GeneratedBoxExamples
 from .box_transform import DBOX_TRANSFORM, BoxTransform
 from .numpy_loader import Batches, store_batches, stream_batches
-from .sources import GeneratedExamples, StoreExamples
+from .sources import GeneratedBoxExamples, GeneratedExamples, StoreExamples
 from .transforms import LABELS, PAPER_SIZE, Transform
 
 __all__ = [

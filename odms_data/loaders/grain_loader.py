@@ -32,10 +32,16 @@ from ..errors import InputError
 from ..extras import missing
 from ..simulate.box_examples import BoxParams
 from ..simulate.params import GeneratorParams
-from .box_sources import GeneratedBoxExamples
 from .box_transform import BoxTransform
 from .reused_arrays import ReusedArrays
-from .sources import STANDARD, GeneratedExamples, generated_examples, store_examples, stream_indices
+from .sources import (
+    STANDARD,
+    GeneratedBoxExamples,
+    GeneratedExamples,
+    generated_examples,
+    store_examples,
+    stream_indices,
+)
 from .transforms import PAPER_TRANSFORM, Transform
 
 try:

@@ -23,14 +23,15 @@ from ..errors import InputError
 from ..parallel import end_pool, ordered_map, worker_pool
 from ..simulate.box_examples import BoxParams
 from ..simulate.params import GeneratorParams
-from .box_sources import GeneratedBoxExamples, StoreBoxExamples
 from .box_transform import BoxTransform
 from .reused_arrays import ReusedArrays
 from .shared_batches import Arena, BlockPool
 from .sources import (
     STANDARD,
+    GeneratedBoxExamples,
     GeneratedExamples,
     Indices,
+    StoreBoxExamples,
     StoreExamples,
     generated_examples,
     store_examples,

@@ -8,20 +8,21 @@ and the store reopened on first use.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from ..errors import InputError
 from ..simulate.batch_render import render_masks, render_shrunk
-from ..simulate.box_examples import BoxParams
+from ..simulate.box_examples import BOX_PRESETS, BoxParams, sample_box_examples
 from ..simulate.object_model import sample_examples
 from ..simulate.params import PRESETS, GeneratorParams
 from ..simulate.shrink import shrink_packed
+from ..store.box_rule import example_boxes
 from ..store.masks import unpack
-from .box_sources import GeneratedBoxExamples, StoreBoxExamples
+from ..store.reader import Store, open_store
 from .box_transform import DBOX_TRANSFORM, BoxTransform
-from .store_rows import StoreRows
 from .transforms import PAPER_TRANSFORM, Transform
 
 STANDARD = PRESETS["standard"]
@@ -47,6 +48,28 @@ def collate(examples: list[dict[str, np.ndarray]], empty: Empty = np.empty) -> d
                 "so every example has as many observations"
             ) from None
     return out
+
+
+class StoreRows:
+    """The store at `path`, opened on first use in each process; `len` is its number of examples."""
+
+    def __init__(self, path: str) -> None:
+        self.path = str(path)
+        self._store: Store | None = None
+        self._pid: int | None = None
+        self._len = len(self.store)
+
+    @property
+    def store(self) -> Store:
+        if self._store is None or self._pid != os.getpid():
+            self._store, self._pid = open_store(self.path), os.getpid()
+        return self._store
+
+    def __getstate__(self) -> dict:
+        return {**self.__dict__, "_store": None, "_pid": None}
+
+    def __len__(self) -> int:
+        return self._len
 
 
 class StoreExamples(StoreRows):
@@ -161,6 +184,68 @@ class GeneratedExamples:
         index = empty((len(specs),), np.dtype(np.int64))
         index[...] = indices
         return {"masks": masks, **vectors, "index": index}
+
+
+class GeneratedBoxExamples:
+    """The box examples of (params, seed), transformed; `example(index)` depends only on
+    (params, seed, index, transform)."""
+
+    def __init__(self, params: BoxParams = BOX_PRESETS["odmd"], seed: int = 0,
+                 transform: BoxTransform = DBOX_TRANSFORM) -> None:
+        if seed < 0:
+            raise InputError(f"seed must be a non-negative integer, got {seed}")
+        transform.select(params.num_pos)  # refuses n_obs > num_pos before any worker starts
+        self.params, self.seed, self.transform = params, seed, transform
+
+    def example(self, index: int) -> dict[str, np.ndarray]:
+        return {key: a[0] for key, a in self.batch([index]).items()}
+
+    def batch(self, indices: Sequence[int] | np.ndarray,
+              empty: Callable[[tuple[int, ...], np.dtype], np.ndarray] = np.empty) -> dict[str, np.ndarray]:
+        """The examples at generator `indices`, in arrays made by `empty` (as sources.collate)."""
+        g = sample_box_examples(self.params, self.seed, indices)
+        made = self.transform.batch(g["boxes"], g["move"], g["depth"])
+        out = {}
+        for key, a in made.items():
+            out[key] = empty(a.shape, a.dtype)
+            out[key][...] = a
+        index = empty((len(a),), np.dtype(np.int64))
+        index[...] = indices
+        return {**out, "index": index}
+
+
+class StoreBoxExamples(StoreRows):
+    """The examples of the store at `path` as box examples (store/box_rule.py), transformed;
+    `example(i)` by row."""
+
+    def __init__(self, path: str, transform: BoxTransform = DBOX_TRANSFORM) -> None:
+        self.transform = transform
+        super().__init__(path)
+
+    def example(self, i: int) -> dict[str, np.ndarray]:
+        return {key: a[0] for key, a in self.batch([i]).items()}
+
+    def examples(self, indices: Sequence[int] | np.ndarray) -> list[dict[str, np.ndarray]]:
+        made = self.batch(indices)
+        return [{key: a[k] for key, a in made.items()} for k in range(len(indices))]
+
+    def batch(self, indices: Sequence[int] | np.ndarray,
+              empty: Callable[[tuple[int, ...], np.dtype], np.ndarray] = np.empty) -> dict[str, np.ndarray]:
+        """The examples at store rows `indices`, in arrays made by `empty` (as sources.collate)."""
+        rows = np.asarray(indices, np.int64)
+        bad = rows[(rows < 0) | (rows >= self._len)]
+        if len(bad):
+            raise InputError(f"{self.path}: example row {bad[0]} is out of range 0..{self._len - 1}")
+        e = example_boxes(self.store, rows, self.transform.n_obs)
+        try:
+            made = self.transform.batch(e.boxes, e.move, e.depth)
+        except InputError as e:
+            raise InputError(f"{self.path}: {e}") from None
+        out = {}
+        for key, a in {**made, "index": rows}.items():
+            out[key] = empty(a.shape, a.dtype)
+            out[key][...] = a
+        return out
 
 
 def generated_examples(

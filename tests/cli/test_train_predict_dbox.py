@@ -14,8 +14,8 @@ import torch
 from click.testing import CliRunner
 
 from odms_data.cli import main
-from odms_data.loaders.box_sources import StoreBoxExamples
 from odms_data.loaders.box_transform import BoxTransform
+from odms_data.loaders.sources import StoreBoxExamples
 from odms_data.network.dbox import DBox
 from odms_data.network.run_folder import TrainConfig
 from odms_data.network.training import train

@@ -9,7 +9,7 @@ import numpy as np
 from click.testing import CliRunner
 
 from odms_data.cli import main
-from odms_data.loaders.box_sources import GeneratedBoxExamples
+from odms_data.loaders.sources import GeneratedBoxExamples
 from odms_data.simulate.box_examples import BOX_PRESETS
 from odms_data.store.box_rule import example_boxes
 from odms_data.store.reader import open_store
