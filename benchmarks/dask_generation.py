@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import resource
 import shutil
 import statistics
 import subprocess
@@ -41,11 +40,6 @@ import _results  # noqa: E402
 DASK = Path(sys.executable).with_name("dask")
 
 
-def children_cpu() -> float:
-    r = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return r.ru_utime + r.ru_stime
-
-
 def tree_cpu(pids: list[int]) -> float:
     """CPU-seconds so far of these processes and all their descendants."""
     total = 0.0
@@ -61,15 +55,32 @@ def tree_cpu(pids: list[int]) -> float:
 
 
 def run(args: list[str], cluster_pids: list[int]) -> tuple[float, float, str]:
-    """Wall seconds, CPU-seconds (the command and the cluster) and the digest of one `generate`."""
-    c0, k0, t = children_cpu(), tree_cpu(cluster_pids), time.perf_counter()
-    out = subprocess.run([sys.executable, "-m", "odms_data.cli", "generate", *args],
-                         capture_output=True, text=True)
-    secs = time.perf_counter() - t
-    cpu = children_cpu() - c0 + tree_cpu(cluster_pids) - k0
-    if out.returncode:
-        raise SystemExit(f"odms-data generate {' '.join(args)} failed: {out.stderr.strip()}")
-    return secs, cpu, out.stdout.rsplit("digest ", 1)[1].split()[0]
+    """Wall seconds, CPU-seconds (the command, its descendants and the cluster) and the digest of
+    one `generate`. The command does not reap its fork server, so its workers' CPU never reaches
+    RUSAGE_CHILDREN: every process of the command's tree is sampled every 0.1 s instead, and each
+    counts its last sample (what a process spends in its last 0.1 s is missed)."""
+    k0, t = tree_cpu(cluster_pids), time.perf_counter()
+    seen: dict[int, float] = {}
+    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
+        command = [sys.executable, "-m", "odms_data.cli", "generate", *args]
+        proc = subprocess.Popen(command, stdout=out, stderr=err, text=True)
+        while proc.poll() is None:
+            try:
+                root = psutil.Process(proc.pid)
+                for q in [root, *root.children(recursive=True)]:
+                    c = q.cpu_times()
+                    seen[q.pid] = c.user + c.system
+            except psutil.Error:
+                pass  # a process that has just ended keeps its last sample
+            time.sleep(0.1)
+        secs = time.perf_counter() - t
+        out.seek(0)
+        err.seek(0)
+        stdout, stderr = out.read(), err.read()
+    cpu = sum(seen.values()) + tree_cpu(cluster_pids) - k0
+    if proc.returncode:
+        raise SystemExit(f"odms-data generate {' '.join(args)} failed: {stderr.strip()}")
+    return secs, cpu, stdout.rsplit("digest ", 1)[1].split()[0]
 
 
 @contextmanager
