@@ -14,8 +14,8 @@ import torch
 from click.testing import CliRunner
 
 from odms_data.cli import main
-from odms_data.loaders.box_sources import StoreBoxExamples
 from odms_data.loaders.box_transform import BoxTransform
+from odms_data.loaders.sources import StoreExamples
 from odms_data.network.dbox import DBox
 from odms_data.network.run_folder import TrainConfig
 from odms_data.network.training import train
@@ -98,7 +98,7 @@ def test_a_stopped_run_resumes_with_the_same_batches(tmp_path, val_store):
 
 def _predict_direct(weights: dict, store: Path, normalized: bool = True) -> np.ndarray:
     """Depths of every example of `store` from DBox with `weights`, computed here without predict."""
-    examples = StoreBoxExamples(str(store), BoxTransform(normalized=normalized, relative=normalized))
+    examples = StoreExamples(str(store), BoxTransform(normalized=normalized, relative=normalized))
     b = examples.batch(np.arange(len(examples)))
     net = DBox()
     net.load_state_dict(weights)
