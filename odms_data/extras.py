@@ -16,6 +16,7 @@ EXTRAS = {  # top-level module -> the extra that installs it
     "matplotlib": "plot",
     "dask": "dask", "distributed": "dask", "fsspec": "dask",
     "s3fs": "s3", "gcsfs": "gcs", "adlfs": "azure",
+    "pycocotools": "coco",
 }
 
 

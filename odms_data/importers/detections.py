@@ -22,6 +22,7 @@ approaches. docs/DETECTIONS.md.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -212,7 +213,9 @@ class RleMask:
             rle = mask.frPyObjects(rle, self.height, self.width)
         else:
             rle["counts"] = rle["counts"].encode("ascii")
-        return np.asarray(mask.decode(rle), bool)
+        with warnings.catch_warnings():  # pycocotools 2.0 on NumPy 2: its __array__ has no copy keyword
+            warnings.simplefilter("ignore", DeprecationWarning)
+            return np.asarray(mask.decode(rle), bool)
 
 
 # --- poses and the plan --------------------------------------------------------------------
@@ -407,6 +410,8 @@ def import_detections(
     static object, else none."""
     path = Path(path)
     _check(camera, which, fmt, masks, n_obs, windows, d1)
+    if masks:
+        optional("pycocotools.mask", "import detections --masks")  # before anything is read
     if image_size is not None:
         image_size = checked_size(image_size, "image size")
     table = read_poses(camera.poses)

@@ -65,19 +65,18 @@ def write_mot(path: Path, rows: list[tuple[int, int, np.ndarray, float]]) -> Pat
     return path
 
 
-def write_coco(root: Path, names: list[str], rows: list[tuple[int, int, np.ndarray, float, dict | None]]
-               ) -> tuple[Path, Path]:
-    """COCO results (frame index, category, normalised box, score, segmentation) and the dataset's
+def write_coco(root: Path, names: list[str], rows: list[tuple]) -> tuple[Path, Path]:
+    """COCO results (frame index, category, normalised box, score[, segmentation]) and the dataset's
     image list, image ids not in name order."""
     ids = [1000 - 3 * k for k in range(len(names))]
     images = {"images": [{"id": i, "file_name": n, "width": W, "height": H}
                          for i, n in reversed(list(zip(ids, names, strict=True)))],
               "categories": [{"id": 1, "name": "cup"}]}
     results = []
-    for f, c, b, s, seg in rows:
+    for f, c, b, s, *seg in rows:
         entry = {"image_id": ids[f], "category_id": c, "bbox": [float(v) for v in pixels(b)[0]], "score": s}
-        if seg is not None:
-            entry["segmentation"] = seg
+        if seg:
+            entry["segmentation"] = seg[0]
         results.append(entry)
     (root / "instances.json").write_text(json.dumps(images))
     (root / "results.json").write_text(json.dumps(results))

@@ -5,10 +5,11 @@ close choices, and bad rows named in one line."""
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from detection_formats import H, Scene, W, scene, write_matrices, write_mot, write_tum
+from detection_formats import H, Scene, W, scene, write_coco, write_matrices, write_mot, write_tum, write_yolo
 
 from odms_data.cli import main
 from odms_data.errors import InputError
@@ -199,3 +200,126 @@ def test_choosing_the_object_is_checked(tmp_path):
     with pytest.raises(InputError, match="give the frame rate"):
         import_detections("mot", mot, Camera(write_tum(tmp_path / "t.txt", TIMES, sc.c2w)),
                           tmp_path / "x.zarr", which=Which(track=7), image_size=(H, W))
+
+
+def names_by_time(n: int = N) -> list[str]:
+    return [f"{t:.6f}.png" for t in TIMES[:n]]
+
+
+def test_coco_results_of_a_category_with_the_image_list(tmp_path):
+    """COCO results (image ids not in name order), frames ordered by file name and matched to TUM
+    poses by the time in their names; another category's higher scores are not taken."""
+    sc = scene(N)
+    rows = [(k, 1, b, 0.7) for k, b in enumerate(sc.boxes) if k != 3]
+    rows += [(k, 2, b, 0.95) for k, b in enumerate(sc.boxes)]  # another category on the same object
+    results, images = write_coco(tmp_path, names_by_time(), rows)
+    camera = Camera(write_tum(tmp_path / "tum.txt", TIMES + 0.004, sc.c2w))
+    done = import_detections("coco", results, camera, tmp_path / "c.zarr", which=Which(category=1),
+                             images=images, d1=0.5)
+    assert done.missed == [names_by_time()[3]] and done.close == []
+    (box, move, _, _), = stored(done.result.path).values()
+    np.testing.assert_allclose(np.delete(box, 3, axis=0), np.delete(sc.boxes, 3, axis=0), atol=1e-12)
+    np.testing.assert_allclose(move, sc.p[-1] - sc.p, atol=1e-9)
+    with pytest.raises(InputError, match="detections of 2 categories"):
+        import_detections("coco", results, camera, tmp_path / "x.zarr", images=images)
+
+
+def test_yolo_labels_with_the_image_size_given_or_read_from_the_images(tmp_path):
+    sc = scene(N)
+    names = [f"frame{k:04d}.png" for k in range(N)]
+    rows = [(k, 0, b, 0.8) for k, b in enumerate(sc.boxes) if k != 7]
+    labels = write_yolo(tmp_path / "labels", names, rows)
+    (tmp_path / "frames").mkdir()
+    for n in names:
+        cv2.imwrite(str(tmp_path / "frames" / n), np.zeros((H, W), np.uint8))
+    camera = Camera(write_matrices(tmp_path / "c2w.txt", sc.c2w))
+    read = import_detections("yolo", labels, camera, tmp_path / "a.zarr", which=Which(category=0),
+                             images=tmp_path / "frames")
+    assert read.missed == ["frame0007"]  # no .txt: nothing detected in that frame
+    with pytest.raises(InputError, match="24 poses for 23 frames"):  # without the images, 23 .txt frames
+        import_detections("yolo", labels, camera, tmp_path / "b.zarr", image_size=(H, W))
+    (labels / "frame0007.txt").write_text("")
+    given = import_detections("yolo", labels, camera, tmp_path / "b.zarr", image_size=(H, W))
+    assert given.missed == ["frame0007"]
+    (box, _, _, _), = stored(read.result.path).values()
+    (same, _, _, _), = stored(given.result.path).values()
+    np.testing.assert_array_equal(box, same)
+    np.testing.assert_allclose(np.delete(box, 7, axis=0), np.delete(sc.boxes, 7, axis=0), atol=1e-15)
+    with pytest.raises(InputError, match="give the image size, or the images"):
+        import_detections("yolo", labels, camera, tmp_path / "c.zarr")
+
+
+def ellipse(box: np.ndarray) -> np.ndarray:
+    m = np.zeros((H, W), np.uint8)
+    cv2.ellipse(m, (int(box[0] * W), int(box[1] * H)), (int(box[2] * W / 2), int(box[3] * H / 2)), 0, 0, 360,
+                1, -1)
+    return m
+
+
+def test_coco_rle_segmentations_import_as_masks(tmp_path):
+    """Mask R-CNN's results: compressed RLE (and one uncompressed), decoded by pycocotools into a
+    store of masks, closest frame first; a missed frame is an empty mask."""
+    from pycocotools import mask as rle
+
+    sc = scene(N)
+    truth = [ellipse(b) for b in sc.boxes]
+    rows = []
+    for k, (b, m) in enumerate(zip(sc.boxes, truth, strict=True)):
+        if k == 5:
+            continue
+        seg = rle.encode(np.asfortranarray(m))
+        seg = {"size": seg["size"], "counts": seg["counts"].decode()}
+        if k == 9:  # uncompressed, as some tools write it
+            flat, runs, value, n = m.ravel(order="F"), [], 0, 0
+            for v in flat:
+                if v != value:
+                    runs.append(n)
+                    value, n = v, 0
+                n += 1
+            seg = {"size": [H, W], "counts": [*runs, n]}
+        rows.append((k, 1, b, 0.9, seg))
+    results, images = write_coco(tmp_path, names_by_time(), rows)
+    camera = Camera(write_matrices(tmp_path / "c2w.txt", sc.c2w))
+    done = import_detections("coco", results, camera, tmp_path / "m.zarr", images=images, masks=True, d1=0.5)
+    assert done.missed == [names_by_time()[5]] and done.result.attrs.kind == "masks"
+    with open_store(done.result.path) as s:
+        ex = s.example(s.example_ids[0])
+        want = np.stack(truth[::-1]).astype(bool)  # closest first
+        want[N - 1 - 5] = False
+        np.testing.assert_array_equal(ex.masks, want)
+        np.testing.assert_allclose(ex.depth, sc.p[::-1, 2], atol=1e-9)
+
+
+BAD_RLE = {
+    "runs past the image": ({"size": [H, W], "counts": [0, H * W + 5]}, "cover 307205 pixels"),
+    "runs short of it": ({"size": [H, W], "counts": "1"}, "cover 1 pixels, the image has 307200"),
+    "another size": ({"size": [10, 10], "counts": [100]}, "segmentation size [10, 10] is not the image's"),
+    "a polygon": ([[1, 2, 3, 4, 5, 6]], "the segmentation is a polygon"),
+    "a character outside RLE's": ({"size": [H, W], "counts": "~~"}, "holds '~', not a COCO RLE character"),
+}
+
+
+@pytest.mark.parametrize("case", BAD_RLE)
+def test_a_bad_rle_is_refused_before_it_is_decoded(tmp_path, case):
+    seg, says = BAD_RLE[case]
+    sc = scene(4)
+    rows = [(k, 1, b, 0.9, seg if k == 2 else {"size": [H, W], "counts": [H * W]})
+            for k, b in enumerate(sc.boxes)]
+    results, images = write_coco(tmp_path, names_by_time(4), rows)
+    with pytest.raises(InputError) as e:
+        import_detections("coco", results, Camera(write_matrices(tmp_path / "c.txt", sc.c2w)),
+                          tmp_path / "m.zarr", images=images, masks=True)
+    assert "results.json entry 2: " in str(e.value) and says in str(e.value), str(e.value)
+
+
+def test_masks_without_pycocotools_name_the_extra(tmp_path):
+    from cli.test_extras import assert_names_extra, without
+
+    sc = scene(4)
+    seg = {"size": [H, W], "counts": [H * W]}
+    rows = [(k, 1, b, 0.9, seg) for k, b in enumerate(sc.boxes)]
+    results, images = write_coco(tmp_path, names_by_time(4), rows)
+    r = without("pycocotools", "import", "detections", str(results), "--images", str(images), "--masks",
+                "--poses", str(write_matrices(tmp_path / "c.txt", sc.c2w)), "-o", str(tmp_path / "m.zarr"))
+    assert_names_extra(r, "coco", "import detections --masks needs pycocotools")
+    assert not (tmp_path / "m.zarr").exists()
