@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -41,6 +43,34 @@ def _counts(option: str, text: str | None) -> list[int] | None:
         raise InputError(f"{option} '{text}': expected frame counts separated by commas, "
                          "e.g. 10,15,20,25,30") from None
     return values
+
+
+def _options(*options: Callable[[Any], Any]) -> Callable[[Any], Any]:
+    """The options, in this order, as one decorator (those two imports of one's own data share)."""
+    def apply(f: Any) -> Any:
+        for option in reversed(options):
+            f = option(f)
+        return f
+    return apply
+
+
+_window_options = _options(
+    click.option("--windows", default=None, metavar="N,N,...",
+                 help="Windowed examples of these frame counts (robot protocol: 10,15,20,25,30); "
+                      "default: one example over all frames."),
+    click.option("--n-obs", type=click.IntRange(min=2), default=None,
+                 help="Observations per windowed example (default 10)."))
+_pose_option = click.option(
+    "--pose", type=click.Choice(DIRECTIONS), default="camera-to-world", show_default=True,
+    help="What the --poses matrices map (TUM's and KITTI's map the camera to the world).")
+_store_options = _options(
+    click.option("--d1", type=float, default=None,
+                 help="Known depth (m) at the closest frame of a static object; labels every example."),
+    click.option("--name", default=None, help="Name used in the store and its example ids "
+                 "(default: the output's name)."),
+    click.option("--format", "fmt", type=click.Choice(["zarr", "hdf5"]), default=None,
+                 help="Store backend (default: from the output suffix, else zarr)."),
+    click.option("--overwrite", is_flag=True, help="Replace an existing store."))
 
 
 @click.group("import")
@@ -156,8 +186,7 @@ def odmd(data_dir, out_dir, sets, fmt, overwrite, as_json):
 @click.option("--poses", type=click.Path(), default=None,
               help="Camera poses instead of --positions: 4x4 matrices (text rows of 16 numbers or .npy), "
                    "KITTI odometry 3x4 rows, or a TUM trajectory (schemas/RECORDING.md).")
-@click.option("--pose", type=click.Choice(DIRECTIONS), default="camera-to-world", show_default=True,
-              help="What the --poses matrices map (TUM's and KITTI's map the camera to the world).")
+@_pose_option
 @click.option("--time-tolerance", type=click.FloatRange(min=0), default=DEFAULT_TIME_TOLERANCE,
               show_default=True, help="Seconds between a frame's time (its file name) and its TUM pose.")
 @click.option("--max-rotation", type=click.FloatRange(0, 180), default=DEFAULT_MAX_ROTATION,
@@ -165,20 +194,10 @@ def odmd(data_dir, out_dir, sets, fmt, overwrite, as_json):
                                        "refused and listed.")
 @click.option("-o", "--output", type=click.Path(), default=None,
               help="Output store (default: <MASK_DIR name>.zarr).")
-@click.option("--windows", default=None, metavar="N,N,...",
-              help="Windowed examples of these frame counts (robot protocol: 10,15,20,25,30); "
-                   "default: one example over all frames.")
-@click.option("--n-obs", type=click.IntRange(min=2), default=None,
-              help="Observations per windowed example (default 10).")
+@_window_options
 @click.option("--threshold", type=click.IntRange(0, 255), default=DEFAULT_THRESHOLD, show_default=True,
               help="Non-binary masks (JPEG, anti-aliased): pixels >= this are object.")
-@click.option("--d1", type=float, default=None,
-              help="Known depth (m) at the closest frame of a static object; labels every example.")
-@click.option("--name", default=None, help="Name used in the store and its example ids "
-              "(default: the output's name).")
-@click.option("--format", "fmt", type=click.Choice(["zarr", "hdf5"]), default=None,
-              help="Store backend (default: from the output suffix, else zarr).")
-@click.option("--overwrite", is_flag=True, help="Replace an existing store.")
+@_store_options
 @click.option("--skip-bad", is_flag=True, help="Leave out bad rows and files, report what was skipped.")
 @click.option("--workers", type=click.IntRange(1, 1024), default=None,
               show_default="all cores", help="Decoding processes.")
@@ -244,8 +263,7 @@ def _detections_format(given: str | None, path: str) -> str:
 @click.option("--poses", type=click.Path(), required=True,
               help="Camera poses: 4x4 matrices (text rows of 16 numbers or .npy), KITTI odometry 3x4 rows, "
                    "or a TUM trajectory (schemas/RECORDING.md), one per frame or matched by time.")
-@click.option("--pose", type=click.Choice(DIRECTIONS), default="camera-to-world", show_default=True,
-              help="What the --poses matrices map (TUM's and KITTI's map the camera to the world).")
+@_pose_option
 @click.option("--track", type=int, default=None, help="The object's track id (MOTChallenge).")
 @click.option("--category", type=int, default=None,
               help="The object's category id (COCO, YOLO), chosen by best score and followed by overlap.")
@@ -265,18 +283,8 @@ def _detections_format(given: str | None, path: str) -> str:
               show_default=True, help="Degrees an example's frames may turn; beyond, it is refused, listed.")
 @click.option("-o", "--output", type=click.Path(), default=None,
               help="Output store (default: <DETECTIONS name>.zarr).")
-@click.option("--windows", default=None, metavar="N,N,...",
-              help="Windowed examples of these frame counts (robot protocol: 10,15,20,25,30); "
-                   "default: one example over all frames.")
-@click.option("--n-obs", type=click.IntRange(min=2), default=None,
-              help="Observations per windowed example (default 10).")
-@click.option("--d1", type=float, default=None,
-              help="Known depth (m) at the closest frame of a static object; labels every example.")
-@click.option("--name", default=None, help="Name used in the store and its example ids "
-              "(default: the output's name).")
-@click.option("--format", "fmt", type=click.Choice(["zarr", "hdf5"]), default=None,
-              help="Store backend (default: from the output suffix, else zarr).")
-@click.option("--overwrite", is_flag=True, help="Replace an existing store.")
+@_window_options
+@_store_options
 @click.option("--json", "as_json", is_flag=True, help="Print what was written as JSON.")
 def detections(detections, source_format, poses, pose, track, category, min_iou, images, image_size, masks,
                fps, start_time, time_tolerance, max_rotation, output, windows, n_obs, d1, name, fmt,
