@@ -11,8 +11,6 @@ made where they are silent: docs/DETECTIONS.md.
 
 from __future__ import annotations
 
-import math
-from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -22,6 +20,7 @@ import numpy as np
 from ..errors import InputError
 from ..safe_json import loads
 from .mask_files import MAX_PIXELS, image_size, is_mask_file
+from .text_rows import number, text_rows
 
 FORMATS = ("mot", "coco", "yolo")
 MAX_FILE_BYTES = 1 << 30  # a MOT file or a COCO JSON larger than this is refused before it is read
@@ -59,40 +58,9 @@ def _bounded_size(path: Path, limit: int, what: str) -> None:
         raise InputError(f"{path}: {size} bytes, more than {what} may have ({limit})")
 
 
-def text_rows(path: Path, max_chars: int, max_lines: int) -> Iterator[tuple[int, str]]:
-    """The file's data lines (not blank, not # comments), stripped, with their line numbers; each
-    line's length and the count of lines bounded before either is held."""
-    try:
-        with path.open(encoding="utf-8") as f:
-            for i in range(1, max_lines + 2):
-                line = f.readline(max_chars + 1)
-                if not line:
-                    return
-                if i > max_lines:
-                    raise InputError(f"{path}: more than {max_lines} lines")
-                if len(line) > max_chars:
-                    raise InputError(f"{path} line {i}: longer than a row can be ({max_chars} characters)")
-                line = line.strip()
-                if line and not line.startswith("#"):
-                    yield i, line
-    except UnicodeDecodeError as e:
-        raise InputError(f"{path}: not a text file (a byte at {e.start} of a line is not UTF-8)") from None
-
-
-def number(text: str, where: str, what: str) -> float:
-    """A finite number, or InputError naming `where` and `what`."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise InputError(f"{where}: {what} '{text[:40]}' is not a number") from None
-    if not math.isfinite(value):
-        raise InputError(f"{where}: {what} '{text[:40]}' is not a finite number")
-    return value
-
-
 def whole(text: str, where: str, what: str, low: int) -> int:
     """A whole number >= low (written as an integer or as a float with no fraction)."""
-    value = number(text, where, what)
+    value = number(text, f"{where}: {what}")
     if value != int(value) or value < low or abs(value) > 2**53:
         raise InputError(f"{where}: {what} '{text[:40]}' is not a whole number >= {low}")
     return int(value)
@@ -161,9 +129,10 @@ def read_mot(path: Path, size: tuple[int, int], n_frames: int | None) -> Detecti
         if n_frames is not None and frame > n_frames:
             raise InputError(f"{where}: frame {frame}, but there are {n_frames} poses (one per frame)")
         track = whole(fields[1], where, "id", -1)
-        x, y, w, h = (number(t, where, c) for t, c in zip(fields[2:6], ("x", "y", "w", "h"), strict=True))
+        x, y, w, h = (number(t, f"{where}: {c}")
+                      for t, c in zip(fields[2:6], ("x", "y", "w", "h"), strict=True))
         _check_size(w, h, where)
-        score = number(fields[6], where, "conf") if len(fields) > 6 else 1.0
+        score = number(fields[6], f"{where}: conf") if len(fields) > 6 else 1.0
         table.add(frame - 1, track, pixel_box(x, y, w, h, size), score, where)
         last = max(last, frame)
     n = n_frames if n_frames is not None else last
@@ -311,9 +280,9 @@ def read_yolo(label_dir: Path, size: tuple[int, int] | None, images: Path | None
                 raise InputError(f"{where}: {len(fields)} fields; a YOLO row has 5 or 6 "
                                  "(class cx cy w h [conf])")
             category = whole(fields[0], where, "class", 0)
-            cx, cy, w, h = (number(t, where, c)
+            cx, cy, w, h = (number(t, f"{where}: {c}")
                             for t, c in zip(fields[1:5], ("cx", "cy", "w", "h"), strict=True))
             _check_size(w, h, where)
-            score = number(fields[5], where, "conf") if len(fields) > 5 else 1.0
+            score = number(fields[5], f"{where}: conf") if len(fields) > 5 else 1.0
             table.add(f, category, (cx, cy, w, h), score, where)
     return table.done(names, size)

@@ -44,6 +44,7 @@ from .poses import (
     axis_positions,
     camera_to_world,
     match_times,
+    name_times,
     read_poses,
 )
 from .recording import FRAMES_PER_CHUNK, FRAMES_PER_SHARD, windowed_examples
@@ -221,20 +222,6 @@ class RleMask:
 # --- poses and the plan --------------------------------------------------------------------
 
 
-def _name_times(names: list[str]) -> np.ndarray:
-    times = np.empty(len(names))
-    for k, n in enumerate(names):
-        stem = Path(n).stem
-        try:
-            times[k] = float(stem)
-        except ValueError:
-            times[k] = math.nan
-        if not math.isfinite(times[k]):
-            raise InputError(f"frame {n}: its name is not a time in seconds; TUM poses are matched to "
-                             "frames by time: name frames by their time, or give the frame rate")
-    return times
-
-
 def frame_matrices(table: PoseTable, names: list[str], fps: float | None, start: float | None,
                    tolerance: float) -> np.ndarray:
     """Each frame's pose matrix: one pose per frame in order, or (TUM) the pose nearest each frame's
@@ -248,7 +235,7 @@ def frame_matrices(table: PoseTable, names: list[str], fps: float | None, start:
         first = table.times[0] if start is None else start
         times = first + np.arange(len(names)) / fps
     else:
-        times = _name_times(names)
+        times = name_times(names)
     return table.matrices[match_times(table, times, [f"frame {n}" for n in names], tolerance)]
 
 

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..pickles import load_npy
+from .text_rows import number, text_rows
 
 DIRECTIONS = ("camera-to-world", "world-to-camera")
 Pose = tuple[np.ndarray, np.ndarray]  # camera centre, unit optical axis; world coordinates, m
@@ -108,37 +109,12 @@ def _row_matrix(values: np.ndarray, fmt: str, where: str) -> np.ndarray:
 
 
 def _numbers(fields: list[str], where: str) -> np.ndarray:
-    values = np.empty(len(fields))
-    for k, t in enumerate(fields):
-        try:
-            values[k] = float(t)
-        except ValueError:
-            raise InputError(f"{where}, field {k + 1}: '{t[:40]}' is not a number") from None
-        if not math.isfinite(values[k]):
-            raise InputError(f"{where}, field {k + 1}: '{t[:40]}' is not a finite number")
-    return values
+    return np.array([number(t, f"{where}, field {k + 1}:") for k, t in enumerate(fields)], np.float64)
 
 
 def _text_lines(path: Path) -> list[tuple[int, str]]:
-    """The file's data lines (not blank, not # comments) with their line numbers, read line by line
-    with each line's length and the count of lines bounded."""
-    rows = []
-    try:
-        with path.open(encoding="utf-8") as f:
-            for i in range(1, MAX_LINES + 2):
-                line = f.readline(MAX_LINE_CHARS + 1)
-                if not line:
-                    break
-                if i > MAX_LINES:
-                    raise InputError(f"{path}: more than {MAX_LINES} lines")
-                if len(line) > MAX_LINE_CHARS:
-                    raise InputError(f"{path} line {i}: longer than a pose row can be ({MAX_LINE_CHARS} "
-                                     "characters)")
-                line = line.strip()
-                if line and not line.startswith("#"):
-                    rows.append((i, line))
-    except UnicodeDecodeError as e:
-        raise InputError(f"{path}: not a text file (a byte at {e.start} of a line is not UTF-8)") from None
+    """The file's data lines with their line numbers (text_rows), at most MAX_POSES of them."""
+    rows = list(text_rows(path, MAX_LINE_CHARS, MAX_LINES, "a pose row"))
     if len(rows) > MAX_POSES:
         raise InputError(f"{path}: more than {MAX_POSES} poses")
     if not rows:
@@ -262,6 +238,20 @@ def match_times(table: PoseTable, frame_times: np.ndarray, frames: list[str], to
         raise InputError(f"{frames[k]}: no pose in {table.path} within {tolerance:g} s of its time "
                          f"{frame_times[k]:.6f} (nearest {gap[k]:.3g} s away)")
     return nearest
+
+
+def name_times(names: list[str]) -> np.ndarray:
+    """Each frame's time from its name (1305031102.175304.png), to match TUM poses."""
+    times = np.empty(len(names))
+    for k, name in enumerate(names):
+        try:
+            times[k] = float(Path(name).stem)
+        except ValueError:
+            times[k] = math.nan
+        if not math.isfinite(times[k]):
+            raise InputError(f"{name}: its name is not a time in seconds; TUM poses are matched to frames "
+                             "named by their time (e.g. 1305031102.175304.png)")
+    return times
 
 
 def axis_positions(c2w: np.ndarray) -> np.ndarray:

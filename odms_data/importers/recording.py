@@ -38,10 +38,12 @@ from .poses import (
     camera_to_world,
     check_pose_direction,
     match_times,
+    name_times,
     read_poses,
     window_rotations,
 )
 from .result import ImportResult
+from .text_rows import number
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -54,13 +56,7 @@ FRAMES_PER_SHARD = 512
 def _number(text: str, where: str, column: str, *, blank_ok: bool = False) -> float:
     if blank_ok and text.strip() in ("", "nan", "NaN", "NA"):
         return math.nan
-    try:
-        value = float(text)
-    except ValueError:
-        raise InputError(f"{where}: {column} '{text}' is not a number") from None
-    if not math.isfinite(value):
-        raise InputError(f"{where}: {column} '{text}' is not a finite number")
-    return value
+    return number(text, f"{where}: {column}")
 
 
 def _read_table(positions: Path) -> pd.DataFrame:
@@ -153,20 +149,6 @@ def read_positions(
         skips.oddities
 
 
-def _frame_times(files: list[Path]) -> np.ndarray:
-    """Each frame's time from its file name (1305031102.175304.png)."""
-    times = np.empty(len(files))
-    for k, f in enumerate(files):
-        try:
-            times[k] = float(f.stem)
-        except ValueError:
-            times[k] = math.nan
-        if not math.isfinite(times[k]):
-            raise InputError(f"{f}: its name is not a time in seconds; TUM poses are matched to frames "
-                             "named by their time (e.g. 1305031102.175304.png)")
-    return times
-
-
 def read_pose_frames(
     poses: Path, mask_dir: Path, direction: str, time_tolerance: float
 ) -> tuple[list[Path], np.ndarray, np.ndarray]:
@@ -180,8 +162,8 @@ def read_pose_frames(
                              "(one pose per mask, in the order of the masks' names)")
         matrices = table.matrices
     else:
-        matrices = table.matrices[match_times(table, _frame_times(files), [str(f) for f in files],
-                                              time_tolerance)]
+        names = [str(f) for f in files]
+        matrices = table.matrices[match_times(table, name_times(names), names, time_tolerance)]
     c2w = camera_to_world(matrices, direction)
     check_pose_direction(str(poses), {i: camera_pose(M, "camera-to-world") for i, M in enumerate(c2w)},
                          direction)
