@@ -227,30 +227,30 @@ def read_coco(path: Path, image_list: Path) -> Detections:
 
 
 def _yolo_frames(label_dir: Path, images: Path | None) -> tuple[list[str], list[Path | None]]:
-    """The frames (names without suffix, in name order) and each one's .txt (None: no detections):
-    the images of `images`, else the .txt files of `label_dir`."""
+    """The frames (file names, in name order) and each one's .txt (None: no detections): the images
+    of `images`, else the .txt files of `label_dir`."""
     if not label_dir.is_dir():
         raise InputError(f"{label_dir}: no such folder (YOLO: a folder of one .txt per frame)")
     texts = {p.stem: p for p in label_dir.iterdir() if p.suffix == ".txt" and not p.name.startswith(".")}
     if images is None:
-        names = sorted(texts)
+        names = sorted(p.name for p in texts.values())
     else:
         if not images.is_dir():
             raise InputError(f"{images}: no such folder")
-        names = sorted(p.stem for p in images.iterdir() if is_mask_file(p))
-        stray = sorted(set(texts) - set(names))
+        names = sorted(p.name for p in images.iterdir() if is_mask_file(p))
+        stray = sorted(set(texts) - {Path(n).stem for n in names})
         if stray:
             raise InputError(f"{texts[stray[0]]}: no image of that name in {images}")
     if not names:
         raise InputError(f"{images or label_dir}: holds no frames")
     if len(names) > MAX_FRAMES:
         raise InputError(f"{label_dir}: {len(names)} frames, more than {MAX_FRAMES}")
-    return names, [texts.get(n) for n in names]
+    return names, [texts.get(Path(n).stem) for n in names]
 
 
 def _yolo_size(images: Path, names: list[str]) -> tuple[int, int]:
     """The images' one size, read from their headers."""
-    files = {p.stem: p for p in images.iterdir() if is_mask_file(p)}
+    files = {p.name: p for p in images.iterdir() if is_mask_file(p)}
     first = files[names[0]]
     size = checked_size(image_size(first), str(first))
     for n in names[1:]:

@@ -235,12 +235,12 @@ def test_yolo_labels_with_the_image_size_given_or_read_from_the_images(tmp_path)
     camera = Camera(write_matrices(tmp_path / "c2w.txt", sc.c2w))
     read = import_detections("yolo", labels, camera, tmp_path / "a.zarr", which=Which(category=0),
                              images=tmp_path / "frames")
-    assert read.missed == ["frame0007"]  # no .txt: nothing detected in that frame
+    assert read.missed == ["frame0007.png"]  # no .txt: nothing detected in that frame
     with pytest.raises(InputError, match="24 poses for 23 frames"):  # without the images, 23 .txt frames
         import_detections("yolo", labels, camera, tmp_path / "b.zarr", image_size=(H, W))
     (labels / "frame0007.txt").write_text("")
     given = import_detections("yolo", labels, camera, tmp_path / "b.zarr", image_size=(H, W))
-    assert given.missed == ["frame0007"]
+    assert given.missed == ["frame0007.txt"]
     (box, _, _, _), = stored(read.result.path).values()
     (same, _, _, _), = stored(given.result.path).values()
     np.testing.assert_array_equal(box, same)
@@ -323,3 +323,15 @@ def test_masks_without_pycocotools_name_the_extra(tmp_path):
                 "--poses", str(write_matrices(tmp_path / "c.txt", sc.c2w)), "-o", str(tmp_path / "m.zarr"))
     assert_names_extra(r, "coco", "import detections --masks needs pycocotools")
     assert not (tmp_path / "m.zarr").exists()
+
+
+def test_yolo_frames_named_by_time_meet_their_tum_poses(tmp_path):
+    """Label files named by their time (1305031102.033333.txt): the whole name is the time."""
+    sc = scene(N)
+    rows = [(k, 0, b, 0.8) for k, b in enumerate(sc.boxes)]
+    labels = write_yolo(tmp_path / "labels", names_by_time(), rows)
+    camera = Camera(write_tum(tmp_path / "tum.txt", TIMES + 0.004, sc.c2w))
+    done = import_detections("yolo", labels, camera, tmp_path / "y.zarr", image_size=(H, W))
+    (box, move, _, _), = stored(done.result.path).values()
+    np.testing.assert_allclose(box, sc.boxes, atol=1e-15)
+    np.testing.assert_allclose(move, sc.p[-1] - sc.p, atol=1e-9)
