@@ -50,31 +50,36 @@ def scene(n: int, seed: int = 0, turn_deg: np.ndarray | None = None) -> Scene:
     return Scene(c2w, p_seen, boxes)
 
 
-def pixels(box: np.ndarray) -> np.ndarray:
-    """(k, 4) pixel boxes x, y, w, h of normalised ones."""
+def pixels(box: np.ndarray, size: tuple[int, int] = (H, W)) -> np.ndarray:
+    """(k, 4) pixel boxes x, y, w, h of normalised ones in images of `size` (height, width), to
+    nine decimals, as a tool writes them (whole pixels stay whole)."""
     box = np.asarray(box, np.float64).reshape(-1, 4)
-    return np.stack([(box[:, 0] - box[:, 2] / 2) * W, (box[:, 1] - box[:, 3] / 2) * H,
-                     box[:, 2] * W, box[:, 3] * H], axis=1)
+    h, w = size
+    return np.round(np.stack([(box[:, 0] - box[:, 2] / 2) * w, (box[:, 1] - box[:, 3] / 2) * h,
+                              box[:, 2] * w, box[:, 3] * h], axis=1), 9)
 
 
-def write_mot(path: Path, rows: list[tuple[int, int, np.ndarray, float]]) -> Path:
+def write_mot(path: Path, rows: list[tuple[int, int, np.ndarray, float]], size: tuple[int, int] = (H, W)
+              ) -> Path:
     """MOTChallenge rows (frame from 1, id, normalised box, conf)."""
-    text = "".join(f"{f},{i}," + ",".join(repr(float(v)) for v in pixels(b)[0]) + f",{s!r},-1,-1,-1\n"
+    text = "".join(f"{f},{i}," + ",".join(repr(float(v)) for v in pixels(b, size)[0]) + f",{s!r},-1,-1,-1\n"
                    for f, i, b, s in rows)
     path.write_text(text)
     return path
 
 
-def write_coco(root: Path, names: list[str], rows: list[tuple]) -> tuple[Path, Path]:
+def write_coco(root: Path, names: list[str], rows: list[tuple], size: tuple[int, int] = (H, W)
+               ) -> tuple[Path, Path]:
     """COCO results (frame index, category, normalised box, score[, segmentation]) and the dataset's
     image list, image ids not in name order."""
     ids = [1000 - 3 * k for k in range(len(names))]
-    images = {"images": [{"id": i, "file_name": n, "width": W, "height": H}
+    images = {"images": [{"id": i, "file_name": n, "width": size[1], "height": size[0]}
                          for i, n in reversed(list(zip(ids, names, strict=True)))],
               "categories": [{"id": 1, "name": "cup"}]}
     results = []
     for f, c, b, s, *seg in rows:
-        entry = {"image_id": ids[f], "category_id": c, "bbox": [float(v) for v in pixels(b)[0]], "score": s}
+        box = [float(v) for v in pixels(b, size)[0]]
+        entry = {"image_id": ids[f], "category_id": c, "bbox": box, "score": s}
         if seg:
             entry["segmentation"] = seg[0]
         results.append(entry)
@@ -83,10 +88,12 @@ def write_coco(root: Path, names: list[str], rows: list[tuple]) -> tuple[Path, P
     return root / "results.json", root / "instances.json"
 
 
-def write_yolo(folder: Path, names: list[str], rows: list[tuple[int, int, np.ndarray, float]]) -> Path:
-    """One .txt per frame that has a row (frame index, class, normalised box, conf)."""
+def write_yolo(folder: Path, names: list[str], rows: list[tuple[int, int, np.ndarray, float]],
+               every_frame: bool = False) -> Path:
+    """One .txt per frame that has a row (frame index, class, normalised box, conf); with
+    `every_frame`, an empty one for each other frame."""
     folder.mkdir()
-    lines: dict[int, list[str]] = {}
+    lines: dict[int, list[str]] = {f: [] for f in range(len(names))} if every_frame else {}
     for f, c, b, s in rows:
         lines.setdefault(f, []).append(f"{c} " + " ".join(repr(float(v)) for v in b) + f" {s!r}\n")
     for f, text in lines.items():
