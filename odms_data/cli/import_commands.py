@@ -9,7 +9,7 @@ from typing import Any
 import click
 
 from ..errors import InputError
-from ..importers.detections import DEFAULT_MIN_IOU
+from ..importers.association import DEFAULT_MIN_IOU
 from ..importers.odmd import ODMD_SETS
 from ..importers.plan import DEFAULT_THRESHOLD
 from ..importers.poses import DEFAULT_MAX_ROTATION, DEFAULT_TIME_TOLERANCE, DIRECTIONS
