@@ -124,6 +124,10 @@ ROLES: dict[str, tuple[str, str]] = {  # key -> (kind, suffix of its base value 
     "import recording poses": ("poses", ""), "import recording output": (OUT, ".zarr"),
     "import recording windows": ("text", ""),
     "import recording name": ("text", ""),
+    "import detections detections": ("detections", ""), "import detections poses": ("poses", ""),
+    "import detections images": ("detections", ""), "import detections image_size": ("text", ""),
+    "import detections output": (OUT, ".zarr"), "import detections windows": ("text", ""),
+    "import detections name": ("text", ""),
     "import synthia seq_dirs": ("synthia", ""), "import synthia output": (OUT, ".zarr"),
     "import synthia classes": ("text", ""), "import synthia frames": ("text", ""),
     "import synthia name": ("text", ""),
@@ -184,6 +188,8 @@ BASES: dict[str, tuple[dict[str, str | list[str]], tuple[str, ...]]] = {
     "import recording": ({"mask_dir": "rec", "positions": "positions.csv", "output": "r.zarr",
                           "workers": "1"},
                          ("rec", "positions.csv")),
+    "import detections": ({"detections": "gt.txt", "poses": "poses.txt", "track": "1", "image_size": "64x48",
+                           "output": "d.zarr"}, ("gt.txt", "poses.txt")),
     "import synthia": ({"seq_dirs": ["synthia"], "output": "s.zarr", "workers": "1", "frames": "3",
                         "move": ["1", "60"]},
                        ("synthia",)),
@@ -248,7 +254,8 @@ def any_input(kind: str) -> list[Value]:
     """What every input path gets, whatever it names."""
     good = {"store": "tiny.zarr", "predictions": "p.csv", "run": "run", "checkpoint": "ck.pt",
             "pickles": "odmd", "release": "release", "recording": "rec", "positions": "positions.csv",
-            "poses": "poses.txt", "synthia": "synthia", "entries": "entries", "config": "turn.yaml"}[kind]
+            "poses": "poses.txt", "synthia": "synthia", "entries": "entries", "config": "turn.yaml",
+            "detections": "gt.txt"}[kind]
     return [
         Value("missing", ("missing.x",)),
         Value("an empty folder", ("empty",), lambda cwd: (cwd / "empty").mkdir()),
@@ -544,6 +551,18 @@ def config_values() -> list[Value]:
     return [Value(f"config: {n}", ("c.yaml",), _write("c.yaml", c)) for n, c in contents.items()]
 
 
+def detections_values() -> list[Value]:
+    contents = {
+        "a line of 10^6 fields": "1," * 10**6 + "1\n",
+        "a row of 5 fields": "1,1,2,2,3\n",
+        "a NaN width": "1,1,2,2,nan,3,1\n",
+        "a frame past the poses": "99,1,2,2,3,3,1\n",
+        "bytes that are not text": "1,1,\udcff\n",
+    }
+    return [Value(f"detections: {n}", ("gt.txt",), _write("gt.txt", c.encode("utf-8", "surrogateescape")))
+            for n, c in contents.items()]
+
+
 REPO = HERE.parents[1]
 REBASE = {"checkpoint": (("run", None), ("model", "odn-l")), "poses": (("positions", None),),
           "config": (("params", None), ("box_preset", "odmd"))}
@@ -551,7 +570,7 @@ INPUTS: dict[str, Callable[[], list[Value]]] = {
     "store": store_values, "predictions": predictions_values, "positions": positions_values,
     "pickles": pickles_values, "run": run_values, "poses": poses_values,
     "recording": recording_values, "release": release_values, "entries": entries_values,
-    "synthia": list, "config": config_values,
+    "synthia": list, "config": config_values, "detections": detections_values,
 }
 
 
@@ -773,6 +792,9 @@ class Fixtures:
             tmp.rmdir()
         elif name == "positions.csv":
             self.get("rec")
+        elif name == "gt.txt":
+            path.write_text("".join(f"{i + 1},1,{20 - i},{15 - i},{4 + 2 * i},{3 + 2 * i},0.9\n"
+                                    for i in range(6)))
         elif name == "poses.txt":
             path.write_text("".join(f"1 0 0 0 0 1 0 0 0 0 1 {0.2 + 0.02 * i:.3f} 0 0 0 1\n"
                                     for i in range(6)))
