@@ -5,6 +5,9 @@ object seen by a pinhole camera that approaches it with a known translation and 
     odms-data import recording scene/masks --poses scene/poses.txt --d1 0.3 --windows 10,15,20,25,30 \
         -o scene.zarr
     odms-data estimate scene.zarr --method vosde -o scene-depth --plot scene-depth.png
+    odms-data import detections scene/boxes_mot.txt --track 1 --image-size 640x480 \
+        --poses scene/trajectory.txt --fps 30 --d1 0.3 --windows 10,15,20,25,30 -o scene-boxes.zarr
+    odms-data estimate scene-boxes.zarr --method box-ls -o scene-boxes-depth
 
 Everything is made here, from numbers: no data from elsewhere. The world's +z is the first
 frame's optical axis; the object, a box 12 x 9 x 6 cm, sits on it. Frame by frame the camera
@@ -16,8 +19,14 @@ and their convex hull filled. The folder it writes:
 - masks/<time>.png: the masks (0/255), named by their time in seconds, 30 frames a second;
 - poses.txt: a camera-to-world 4x4 matrix a line, row by row, one per mask in name order;
 - trajectory.txt: the same poses in TUM RGB-D's format, `timestamp tx ty tz qx qy qz qw`;
-- boxes_mot.txt: the object's box in each frame as a MOTChallenge file,
-  `frame,id,bb_left,bb_top,bb_width,bb_height,conf,x,y,z` (frames from 1, 1-based pixels, id 1);
+- the object's box in each frame (the projected corners' bounds, on a grid of 1/64 pixel so
+  that every format carries the same numbers exactly), in the three formats `import detections`
+  reads, with the corner in the image's pixel coordinates (x from 0 at the left) in each:
+  - boxes_mot.txt: MOTChallenge, `frame,id,bb_left,bb_top,bb_width,bb_height,conf,x,y,z`
+    (frames from 1, id 1);
+  - boxes_coco.json and images_coco.json: COCO results (`image_id, category_id, bbox, score`,
+    category 1) and the image list they need (each frame's `<time>.png`, 640 x 480);
+  - boxes_yolo/<time>.txt: YOLO, `class cx cy w h`, normalised to the image (class 0);
 - truth.csv: each mask's time and the depth of the box's front face along the first frame's
   optical axis, the depth `import recording --d1` labels (the closest frame's is `--closest`).
 """
@@ -25,6 +34,7 @@ and their convex hull filled. The folder it writes:
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 
@@ -35,6 +45,7 @@ WIDTH, HEIGHT, FOCAL = 640, 480, 500.0  # pixels
 HALF_SIZE = np.array([0.06, 0.045, 0.03])  # the box's half width, height and thickness, m
 START_TIME, FPS = 1700000000.0, 30.0
 SHIFT = 4  # sub-pixel bits of the filled polygon's corners
+GRID = 64  # a box's corners are multiples of 1 / GRID pixel
 
 
 def yaw(degrees: float) -> np.ndarray:
@@ -81,18 +92,28 @@ def write(out: Path, frames: int, step: float, rotation: float, closest: float) 
     poses, corners, first = scene(frames, step, rotation, closest)
     (out / "masks").mkdir(parents=True)
     times = START_TIME + np.arange(frames) / FPS
+    (out / "boxes_yolo").mkdir()
     pose_lines, tum, mot, truth = [], ["# timestamp tx ty tz qx qy qz qw"], [], ["time,depth"]
+    images, results = [], []
     for i, (t, pose) in enumerate(zip(times, poses, strict=True)):
         points = project(pose, corners)
         cv2.imwrite(str(out / "masks" / f"{t:.6f}.png"), silhouette(points))
         pose_lines.append(" ".join(f"{v:.17g}" for v in pose.ravel()))
         tum.append(f"{t:.6f} " + " ".join(f"{v:.17g}" for v in (*pose[:3, 3], *quaternion(rotation * i))))
-        (x0, y0), (x1, y1) = points.min(axis=0), points.max(axis=0)
-        mot.append(f"{i + 1},1,{x0 + 1:.3f},{y0 + 1:.3f},{x1 - x0:.3f},{y1 - y0:.3f},1,-1,-1,-1")
+        (x0, y0), (x1, y1) = (np.round(points.min(axis=0) * GRID) / GRID,
+                              np.round(points.max(axis=0) * GRID) / GRID)
+        x, y, w, h = float(x0), float(y0), float(x1 - x0), float(y1 - y0)  # exact on the grid
+        mot.append(f"{i + 1},1,{x!r},{y!r},{w!r},{h!r},1,-1,-1,-1")
+        images.append({"id": i + 1, "file_name": f"{t:.6f}.png", "width": WIDTH, "height": HEIGHT})
+        results.append({"image_id": i + 1, "category_id": 1, "bbox": [x, y, w, h], "score": 1.0})
+        yolo = ((x + w / 2) / WIDTH, (y + h / 2) / HEIGHT, w / WIDTH, h / HEIGHT)  # as pixel_box computes it
+        (out / "boxes_yolo" / f"{t:.6f}.txt").write_text("0 " + " ".join(map(repr, yolo)) + "\n")
         truth.append(f"{t:.6f},{first - step * i:.17g}")
     for name, lines in (("poses.txt", pose_lines), ("trajectory.txt", tum), ("boxes_mot.txt", mot),
                         ("truth.csv", truth)):
         (out / name).write_text("\n".join(lines) + "\n")
+    (out / "boxes_coco.json").write_text(json.dumps(results) + "\n")
+    (out / "images_coco.json").write_text(json.dumps({"images": images}) + "\n")
 
 
 def main() -> None:
@@ -112,7 +133,8 @@ def main() -> None:
     if a.frames < 2 or not a.step > 0 or not a.closest > 0.05:
         sys.exit("rendered_scene.py: error: give --frames >= 2, --step > 0 and --closest > 0.05")
     write(a.out, a.frames, a.step, a.rotation, a.closest)
-    print(f"wrote {a.out}: {a.frames} masks, poses.txt, trajectory.txt, boxes_mot.txt, truth.csv; the front "
+    print(f"wrote {a.out}: {a.frames} masks, poses.txt, trajectory.txt, boxes_mot.txt, boxes_coco.json with "
+          f"images_coco.json, boxes_yolo/, truth.csv; the front "
           f"face's depth at the closest frame is {a.closest:g} m (import recording ... --d1 {a.closest:g})")
 
 

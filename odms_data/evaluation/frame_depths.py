@@ -2,12 +2,15 @@
 the windows that end there, the folder that holds them and its plot.
 
 A recording's store (importers/recording.py) holds the robot protocol's windows over one row of
-frames, ordered closest first. A window's d1 is the depth at its closest frame, where an
-approaching camera ends it: the first of its frames in a store of masks, the last (ODMD's order,
-far to near) in a store of boxes (`label_frames`). Each frame's depth is the median of the
-estimates of the windows ending there; their minimum and maximum give the spread, and
-unsolvable windows (a baseline's 0 m) are counted but left out. Frames no window ends at (the
-farthest ones, which only longer windows could end at) have no depth.
+frames, ordered closest first. A store of boxes (importers/detections.py) gives each window its
+own frame rows; its ids (protocol.window_id) name each window's length and first frame, which
+give the recording's frame each observation shows (`recorded_frames`). A store of boxes whose
+ids do not (another import's) keeps its own rows, one window each. A window's d1 is the depth at
+its closest frame, where an approaching camera ends it: the first of its frames in a store of
+masks, the last (ODMD's order, far to near) in a store of boxes (`label_frames`). Each frame's
+depth is the median of the estimates of the windows ending there; their minimum and maximum give
+the spread, and unsolvable windows (a baseline's 0 m) are counted but left out. Frames no window
+ends at (the farthest ones, which only longer windows could end at) have no depth.
 
 The folder (`write_estimate`) holds examples.csv, a predictions file (schemas/PREDICTIONS.md)
 that `odms-data score` reads, and frames.csv, a row per frame (FRAME_COLUMNS). The plot draws
@@ -26,6 +29,7 @@ import pandas as pd
 from ..errors import InputError
 from ..extras import pyplot
 from ..outputs import OutputType, atomic_file, atomic_folder
+from ..protocol import evenly_spaced, window_of_id
 from ..store.reader import Store
 from .error_plots import plot_format
 from .predictions import predictions_table
@@ -36,13 +40,30 @@ FRAME_COLUMNS = ("frame", "z", "true_depth", "windows", "unsolvable", "depth_med
                  "depth_max")
 
 
-def label_frames(store: Store) -> np.ndarray:
-    """(E,) the frame row each example's d1 is the depth at: its first frame in a store of masks,
-    its last in a store of boxes."""
-    fi = store.frame_index
+def recorded_frames(store: Store) -> np.ndarray | None:
+    """(E, N) the recording's frame (closest first; -1 as padding) each observation of a store of
+    boxes from a recording shows, from its examples' ids; None where an id names no window of a
+    recording, or its frames do not fit the window."""
+    if store.attrs.domain != "recording":
+        return None
+    n_obs = store.n_obs
+    rows = np.full(store.frame_index.shape, -1, np.int64)
+    for e, example_id in enumerate(store.example_ids):
+        window = window_of_id(example_id, store.attrs.split)
+        n = int(n_obs[e])
+        if window is None or (window[1] or n) < n:
+            return None
+        start, length = window
+        rows[e, :n] = evenly_spaced(start, start + (length or n) - 1, n)[::-1]  # far to near, as stored
+    return rows
+
+
+def label_frames(store: Store, rows: np.ndarray) -> np.ndarray:
+    """(E,) the frame row of `rows` (E, N) each example's d1 is the depth at: its
+    first frame in a store of masks, its last in a store of boxes."""
     if store.kind == "boxes":
-        return fi[np.arange(len(fi)), store.n_obs - 1]
-    return fi[:, 0]
+        return rows[np.arange(len(rows)), store.n_obs - 1]
+    return rows[:, 0]
 
 
 @dataclass(frozen=True)
@@ -85,11 +106,18 @@ def by_frame(frames: np.ndarray, values: np.ndarray, n_frames: int
 def frame_depths(store: Store, d1: np.ndarray, unsolvable: np.ndarray) -> FrameDepths:
     """Each frame's depth from the estimates `d1` (E,) of the store's examples; `unsolvable` (E,)
     marks those left out."""
-    frames = label_frames(store)
+    recorded = recorded_frames(store) if store.kind == "boxes" else None
+    if recorded is None:
+        rows, n_frames, truth = store.frame_index, store.n_frames, store.depth
+    else:  # the recording's frames, each one's depth from any observation of it
+        rows, n_frames, seen = recorded, int(recorded.max()) + 1, recorded >= 0
+        truth = np.full(n_frames, np.nan)
+        truth[recorded[seen]] = store.depth[store.frame_index[seen]]
+    frames = label_frames(store, rows)
     solved = ~unsolvable
-    count, median, low, high = by_frame(frames[solved], d1[solved], store.n_frames)
-    z = store.z if store.kind == "masks" else np.full(store.n_frames, np.nan)
-    return FrameDepths(z, store.depth, count, np.bincount(frames[unsolvable], minlength=store.n_frames),
+    count, median, low, high = by_frame(frames[solved], d1[solved], n_frames)
+    z = store.z if store.kind == "masks" else np.full(n_frames, np.nan)
+    return FrameDepths(z, truth, count, np.bincount(frames[unsolvable], minlength=n_frames),
                        median, low, high)
 
 

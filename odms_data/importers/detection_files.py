@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from ..protocol import MAX_RECORDING_FRAMES
 from ..safe_json import loads
 from .mask_files import MAX_PIXELS, image_size, is_mask_file
 from .text_rows import number, text_rows
@@ -26,7 +27,7 @@ FORMATS = ("mot", "coco", "yolo")
 MAX_FILE_BYTES = 1 << 30  # a MOT file or a COCO JSON larger than this is refused before it is read
 MAX_LINE_CHARS = 1024  # a MOT row of 10 numbers in full precision takes under 300
 MAX_ROWS = 10_000_000  # detections in one import
-MAX_FRAMES = 1_000_000
+MAX_FRAMES = MAX_RECORDING_FRAMES
 MAX_YOLO_BYTES = 1 << 20  # one frame's .txt
 MOT_FIELDS = (6, 10)  # frame,id,x,y,w,h[,conf[,x,y,z]] (MOT16's ground truth: conf,class,visibility)
 YOLO_FIELDS = (5, 6)  # class cx cy w h [conf]

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..paths import inside
-from ..protocol import protocol_windows
+from ..protocol import WHOLE, protocol_windows, window_id
 from ..store.format import store_path
 from ..store.oddity import SKIPPED, Oddity
 from .builder import Importer, Progress
@@ -198,10 +198,10 @@ def windowed_examples(
             raise InputError(f"n_obs {n_obs} is more than the shortest window ({min(windows)} frames)")
         digits = max(2, len(str(n - 1)))
         spans = protocol_windows(n, windows, n_obs)
-        ids = [f"{name}/w{w}-{s:0{digits}d}" for w, s, _ in spans]
+        ids = [window_id(name, w, s, digits) for w, s, _ in spans]
         frame_index = np.stack([idx for _, _, idx in spans])
     else:
-        ids, frame_index = [f"{name}/all"], np.arange(n)[None, :]
+        ids, frame_index = [f"{name}/{WHOLE}"], np.arange(n)[None, :]
     keep, turned = _turning(ids, frame_index, c2w, max_rotation)
     if not keep.any():
         raise InputError(f"{where}: every example turns more than max_rotation {max_rotation:g} "

@@ -66,7 +66,7 @@ def test_a_store_of_boxes_labels_each_examples_last_frame(tmp_path):
     generate_box_store(str(path), 5, "odmd", 1, split="boxes")
     with open_store(str(path)) as s:
         last = [int(s.frames_of(e)[-1]) for e in range(s.n_examples)]
-        assert label_frames(s).tolist() == last
+        assert label_frames(s, s.frame_index).tolist() == last
         d1 = np.arange(1.0, 6.0)
         depths = frame_depths(s, d1, np.zeros(5, bool))
         assert np.isnan(depths.z).all() and len(depths.z) == s.n_frames
