@@ -28,15 +28,17 @@ _EXPORTS = {
     "preset": "simulate.params", "generate": "simulate.generate_store",
     "import_release": "importers.release", "import_recording": "importers.recording",
     "import_synthia": "importers.synthia",
-    # ODMD's: examples of boxes, read from any store, generated, imported, loaded; its baseline
+    # ODMD's: examples of boxes, read from any store, generated, imported; its baseline
     "BoxExamples": "store.box_rule", "example_boxes": "store.box_rule",
     "generate_box_store": "simulate.generate_box_store", "import_odmd": "importers.odmd",
-    "GeneratedBoxExamples": "loaders.box_sources", "StoreBoxExamples": "loaders.box_sources",
     "box_ls": "evaluation.box_ls",
+    # the loaders' sources, of either kind: masks, or boxes (a BoxTransform, or box parameters)
+    "StoreExamples": "loaders.sources", "GeneratedExamples": "loaders.sources",
+    "BoxTransform": "loaders.box_transform",
 }
 __all__ = [
-    "PRESETS", "BoxExamples", "Example", "GeneratedBoxExamples", "GeneratorParams", "InputError", "OdmsError",
-    "Store", "StoreBoxExamples", "StoreError", "__version__", "box_ls", "convert", "example_boxes",
+    "PRESETS", "BoxExamples", "BoxTransform", "Example", "GeneratedExamples", "GeneratorParams", "InputError",
+    "OdmsError", "Store", "StoreError", "StoreExamples", "__version__", "box_ls", "convert", "example_boxes",
     "generate", "generate_box_store", "import_odmd", "import_recording", "import_release", "import_synthia",
     "open_store", "preset", "validate",
 ]
@@ -48,7 +50,8 @@ if TYPE_CHECKING:
     from .importers.recording import import_recording
     from .importers.release import import_release
     from .importers.synthia import import_synthia
-    from .loaders.box_sources import GeneratedBoxExamples, StoreBoxExamples
+    from .loaders.box_transform import BoxTransform
+    from .loaders.sources import GeneratedExamples, StoreExamples
     from .simulate.generate_box_store import generate_box_store
     from .simulate.generate_store import generate
     from .simulate.params import PRESETS, GeneratorParams, preset

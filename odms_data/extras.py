@@ -14,8 +14,10 @@ EXTRAS = {  # top-level module -> the extra that installs it
     "jax": "jax", "grain": "jax", "optax": "jax", "absl": "jax",
     "pyarrow": "hub",
     "matplotlib": "plot",
+    "yaml": "yaml",
     "dask": "dask", "distributed": "dask", "fsspec": "dask",
     "s3fs": "s3", "gcsfs": "gcs", "adlfs": "azure",
+    "pycocotools": "coco",
 }
 
 

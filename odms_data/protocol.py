@@ -186,6 +186,28 @@ def observation_indices(n: int, n_obs: int) -> np.ndarray:
     return evenly_spaced(0, n - 1, n_obs)
 
 
+MAX_RECORDING_FRAMES = 1_000_000  # frames of one recording an import reads
+WHOLE = "all"  # the name of a recording's one example over all its frames
+
+
+def window_id(split: str, length: int, start: int, digits: int) -> str:
+    """The id of a recording's window of `length` frames from frame `start` (frames closest first),
+    the start written with at least `digits` digits."""
+    return f"{split}/w{length}-{start:0{digits}d}"
+
+
+def window_of_id(example_id: str, split: str) -> tuple[int, int | None] | None:
+    """(start, length) of a recording's example from its id (`window_id`): (0, None) for the one
+    example over all frames, whose length its frames give; None for an id of another kind or a
+    window reaching past MAX_RECORDING_FRAMES."""
+    if example_id == f"{split}/{WHOLE}":
+        return 0, None
+    m = re.fullmatch(rf"{re.escape(split)}/w([1-9][0-9]{{0,6}})-([0-9]{{1,7}})", example_id)
+    if m is None or int(m[1]) + int(m[2]) > MAX_RECORDING_FRAMES:
+        return None
+    return int(m[2]), int(m[1])
+
+
 def protocol_windows(n_frames: int, lengths: Iterable[int], n_obs: int) -> list[tuple[int, int, np.ndarray]]:
     """(length, start, frame offsets) of every window of the robot protocol over n_frames frames:
     each window of `length` consecutive frames contributes n_obs evenly spaced frames."""

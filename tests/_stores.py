@@ -52,8 +52,9 @@ def make_store(path, split: str, examples: list[dict], domain: str = "normal") -
     with StoreWriter(str(path)) as w:
         w.create(layout)
         w.write_masks(0, pack(masks))
-        w.write_frames(0, z, z, stats_of(masks))
-        w.write_examples(0, np.stack(frame_index), np.array(d1, np.float64), ids, ["test"] * len(ids))
+        w.write_rows("frame", 0, {"z": z, "depth": z, **vars(stats_of(masks))})
+        w.write_rows("example", 0, {"frame_index": np.stack(frame_index), "d1": np.array(d1, np.float64),
+                                    "example_id": ids, "source": ["test"] * len(ids)})
         w.commit(StoreAttrs(
             split=split, domain=domain, image_size=(SIZE, SIZE),
             counts={"examples": len(ids), "frames": len(z), "labelled": int(np.isfinite(d1).sum())},

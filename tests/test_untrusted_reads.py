@@ -11,6 +11,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 from broken_stores import HOSTILE, broken_stores, make_valid
 
@@ -209,3 +210,62 @@ def test_predict_never_predicts_from_a_missing_chunk(hostile):
     for w, result in zip((0, 2), results, strict=True):
         assert_refused(result, f"predict --workers {w}", "chunk 1 of the shard is missing")
         assert not (root / f"p{w}.csv").exists()
+
+
+def _detection_files(root: Path) -> list[tuple[list[str], str]]:
+    """Hostile detection and pose files for `import detections`: (arguments, what the line names)."""
+    poses = "".join(f"1 0 0 0 0 1 0 0 0 0 1 {-0.1 * i:.3f} 0 0 0 1\n" for i in range(4))
+    (root / "c2w.txt").write_text(poses)
+    mot = ["import", "detections", "--from", "mot", "--track", "1", "--image-size", "64x48",
+           "--poses", "c2w.txt"]
+    files = {
+        "m1.txt": "1," * 10**6 + "1\n",
+        "m2.txt": "1,1,2,2,3,3,0.9\n2,1,2,2,3\n",
+        "labels/f1.txt": "0 " + "0.5 " * 10**6 + "\n",
+        "labels2/f1.txt": "0 0.5 0.5 nan 0.1\n",
+        "deep.json": "[" * 100_000 + "]" * 100_000,
+        "images.json": json.dumps({"images": [{"id": i, "file_name": f"{i}.png", "width": 64, "height": 48}
+                                              for i in range(4)]}),
+        "bbox.json": json.dumps([{"image_id": 1, "category_id": 1, "bbox": [1, 2, 3], "score": 0.5}]),
+        "id.json": '[{"image_id": 1' + "0" * 400 + ', "category_id": 1, "bbox": [1, 2, 3, 4], "score": 1}]',
+        "huge.json": json.dumps({"images": [{"id": 1, "file_name": "a.png", "width": 10**6,
+                                              "height": 10**6}]}),
+        "tum-nan.txt": "1 0 0 0 0 0 0 1\n2 nan 0 0 0 0 0 1\n",
+        "tum-q.txt": "1 0 0 0 0 0 0 1.01\n",
+        "scaled.txt": " ".join(map(str, np.diag([2, 1, 1, 1]).ravel())) + "\n",
+    }
+    for name, text in files.items():
+        (root / name).parent.mkdir(exist_ok=True)
+        (root / name).write_text(text)
+    with open(root / "big.json", "wb") as f:  # sparse: larger than a COCO file may be, nothing written
+        f.truncate((1 << 30) + 1)
+    coco = ["import", "detections", "--category", "1", "--poses", "c2w.txt"]
+    return [
+        (mot + ["m1.txt"], "m1.txt line 1: longer than a row can be"),
+        (mot + ["m2.txt"], "m2.txt line 2: 5 fields; a MOTChallenge row has 6 to 10"),
+        (["import", "detections", "labels", "--image-size", "64x48", "--poses", "c2w.txt"],
+         "f1.txt: 4000003 bytes, more than a YOLO label file may have"),  # 10^6 fields
+        (["import", "detections", "labels2", "--image-size", "64x48", "--poses", "c2w.txt"],
+         "f1.txt line 1: w 'nan' is not a finite number"),
+        (coco + ["deep.json", "--images", "images.json"], "deep.json: JSON nested deeper than 64"),
+        (coco + ["bbox.json", "--images", "deep.json"], "deep.json: JSON nested deeper than 64"),
+        (coco + ["bbox.json", "--images", "images.json"], "bbox.json entry 0: bbox is not 4 numbers"),
+        (coco + ["id.json", "--images", "images.json"], "id.json: not valid JSON (an integer of 401 digits"),
+        (coco + ["bbox.json", "--images", "huge.json"], "huge.json images[0]: image size 1000000x1000000"),
+        (coco + ["big.json", "--images", "images.json"], "big.json: 1073741825 bytes, more than a COCO"),
+        (mot + ["m2.txt", "--poses", "tum-nan.txt", "--fps", "1"], "tum-nan.txt line 2, field 2: 'nan'"),
+        (mot + ["m2.txt", "--poses", "tum-q.txt", "--fps", "1"], "tum-q.txt line 1: quaternion qx qy qz qw"),
+        (mot + ["m2.txt", "--poses", "scaled.txt"], "scaled.txt line 1: the rotation part is not"),
+    ]
+
+
+def test_every_detection_reader_refuses_a_hostile_file_in_one_line(tmp_path):
+    """MOTChallenge, YOLO and COCO files (a line of 10^6 fields, JSON 100,000 deep, a 401-digit id, a
+    file past the size bound, an image of 10^12 pixels, bad rows) and pose files (NaN, a non-unit
+    quaternion, a matrix that is not a rotation): one line naming the file and row, exit code 2,
+    in bounded memory, nothing written."""
+    cases = _detection_files(tmp_path)
+    results = run_limited(tmp_path, [args + ["-o", f"out{k}.zarr"] for k, (args, _) in enumerate(cases)])
+    for (args, says), result in zip(cases, results, strict=True):
+        assert_refused(result, " ".join(args)[:80], says)
+    assert not list(tmp_path.glob("out*"))

@@ -65,6 +65,7 @@ COMMANDS = {  # command name -> (module of this package, attribute): imported on
     "score": ("score_commands", "score"),
     "compare": ("score_commands", "compare"),
     "baseline": ("score_commands", "baseline"),
+    "estimate": ("estimate_command", "estimate"),
     "leaderboard": ("leaderboard_commands", "leaderboard"),
     "train": ("network_commands", "train"),
     "predict": ("network_commands", "predict"),

@@ -20,6 +20,14 @@ from ..simulate.params import (
 from . import completion, echo_json
 from .progress import progress
 
+
+class _PresetOrNone(click.Choice):
+    """A box preset's name, or nothing (`--boxes` given alone, as with --config)."""
+
+    def convert(self, value, param, ctx):
+        return value if value == "" else super().convert(value, param, ctx)
+
+
 COMPILING = "compiling the drawing kernels for this machine, once (about 10 s; later runs load them)"
 
 
@@ -71,10 +79,14 @@ def _split_recipe(split_name: str, given: list[str]):
 @click.option("--examples-per-shard", type=click.IntRange(min=1), default=None,
               help=f"Examples per shard (one task each); does not change the content (default: "
                    f"{DEFAULT_EXAMPLES_PER_SHARD}, with --boxes {DEFAULT_BOX_EXAMPLES_PER_SHARD}).")
-@click.option("--boxes", "box_preset", type=click.Choice(list(BOX_PRESETS)), default=None,
-              help="Write a store of boxes (ODMD's kind) from the box generator with this preset, "
-                   "rather than masks; takes -n, --seed, --name, -o, --format, --workers, "
-                   "--examples-per-shard and --scheduler.")
+@click.option("--boxes", "box_preset", type=_PresetOrNone(list(BOX_PRESETS)), is_flag=False, flag_value="",
+              default=None, help="Write a store of boxes (ODMD's kind) from the box generator with this "
+                   "preset, or with the settings of --config, rather than masks; takes -n, --seed, --name, "
+                   "-o, --format, --workers, --examples-per-shard and --scheduler.")
+@click.option("--config", "configs", multiple=True, type=click.Path(), metavar="FILE",
+              help="With --boxes: an ODMD generator config (config/data_gen/*.yaml, config/camera/*.yaml; "
+                   "and rotation: degrees, odms-data's), applied in order over the --boxes preset, if any "
+                   "(repeatable; without a preset the files give every key).")
 @click.option("--overwrite", is_flag=True, help="Replace an existing store.")
 @click.option("--json", "as_json", is_flag=True, help="Print what was written as JSON.")
 @click.option("--scheduler", metavar="ADDRESS", default=None,
@@ -82,7 +94,7 @@ def _split_recipe(split_name: str, given: list[str]):
                    "instead of local --workers; needs the dask extra. The output must be a path "
                    "every worker sees, or a URL such as s3://bucket/train.zarr.")
 def generate(split_name, count, preset, seed, n_obs, params, store_split, output, fmt, workers,
-             examples_per_shard, box_preset, overwrite, as_json, scheduler):
+             examples_per_shard, box_preset, configs, overwrite, as_json, scheduler):
     """Generate simulated ODMS examples into a store.
 
     \b
@@ -91,15 +103,21 @@ def generate(split_name, count, preset, seed, n_obs, params, store_split, output
       odms-data generate -n 100000 --preset perturb --seed 7 -o train.zarr --workers 8
       odms-data generate -n 2560000 --scheduler tcp://head:8786 -o s3://lab/odms/train.zarr
       odms-data generate -n 10000 --boxes odmd --seed 3 -o odmd-train.zarr
+      odms-data generate -n 10000 --boxes --config standard_data.yaml --config hsr_grasp_camera.yaml
     """
     if scheduler and workers is not None:
         raise InputError("--workers and --scheduler exclude each other; the cluster has its own workers")
     if scheduler:
         optional("distributed", "odms-data generate --scheduler")  # before the store is begun
-    if box_preset:
+    if configs and box_preset is None:
+        raise InputError("--config reads the box generator's settings (ODMD's config files): give --boxes "
+                         "--config FILE")
+    if box_preset is not None:
+        if not box_preset and not configs:
+            raise InputError(f"--boxes takes a preset ({', '.join(BOX_PRESETS)}) or --config FILE")
         given = {"--split": split_name, "--preset": preset, "--n-obs": n_obs, "--param": params}
-        _generate_boxes(box_preset, count, seed, store_split, output, fmt, overwrite, as_json,
-                        [o for o, v in given.items() if v], workers, examples_per_shard, scheduler)
+        _generate_boxes(box_preset or None, configs, count, seed, store_split, output, fmt, overwrite,
+                        as_json, [o for o, v in given.items() if v], workers, examples_per_shard, scheduler)
         return
     _generate_masks(split_name, count, preset, seed, n_obs, params, store_split, output, fmt, workers,
                     examples_per_shard or DEFAULT_EXAMPLES_PER_SHARD, overwrite, as_json, scheduler)
@@ -147,26 +165,29 @@ def _generate_masks(split_name, count, preset, seed, n_obs, params, store_split,
         click.echo(f"digest matches splits/{split_name}.json")
 
 
-def _generate_boxes(preset, count, seed, split, output, fmt, overwrite, as_json, given, workers,
+def _generate_boxes(preset, configs, count, seed, split, output, fmt, overwrite, as_json, given, workers,
                     examples_per_shard, scheduler):
-    """`generate --boxes PRESET`: a store of boxes from the box generator."""
+    """`generate --boxes [PRESET] [--config FILE ...]`: a store of boxes from the box generator."""
+    from ..simulate.box_config import read_box_config
+    from ..simulate.box_examples import preset_name
     from ..simulate.generate_box_store import generate_box_store
     from ..store.format import store_path
 
     if given:
-        raise InputError(f"--boxes takes -n, --seed, --name, -o, --format, --workers, --examples-per-shard "
-                         f"and --scheduler, not {given[0]}")
+        raise InputError(f"--boxes takes --config, -n, --seed, --name, -o, --format, --workers, "
+                         f"--examples-per-shard and --scheduler, not {given[0]}")
     if count is None:
         raise InputError("give -n COUNT with --boxes")
+    box_params = read_box_config(list(configs), preset) if configs else BOX_PRESETS[preset]
     split = split or "generated"
     output = output or str(store_path(".", split, "hdf5" if fmt == "hdf5" else "zarr"))
     with progress(count, f"generating {output}") as update:
-        attrs = generate_box_store(output, count, preset, seed or 0, split=split, fmt=fmt,
+        attrs = generate_box_store(output, count, box_params, seed or 0, split=split, fmt=fmt,
                                    overwrite=overwrite, progress=update, workers=workers,
                                    examples_per_shard=examples_per_shard or DEFAULT_BOX_EXAMPLES_PER_SHARD,
                                    scheduler=scheduler)
     if as_json:
-        echo_json({"output": output, "split": split, "examples": count, "boxes": preset, "seed": seed or 0,
-                   "digest": attrs.digest})
+        echo_json({"output": output, "split": split, "examples": count, "boxes": preset_name(box_params),
+                   "config": list(configs), "seed": seed or 0, "digest": attrs.digest})
         return
     click.echo(f"wrote {output}: {count} examples of boxes, digest {attrs.digest}")

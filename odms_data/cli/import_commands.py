@@ -1,10 +1,15 @@
-"""`odms-data import odms`, `import odmd`, `import recording` and `import synthia`."""
+"""`odms-data import odms`, `import odmd`, `import recording`, `import detections` and `import synthia`."""
 
 from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
 
 import click
 
 from ..errors import InputError
+from ..importers.association import DEFAULT_MIN_IOU
 from ..importers.odmd import ODMD_SETS
 from ..importers.plan import DEFAULT_THRESHOLD
 from ..importers.poses import DEFAULT_MAX_ROTATION, DEFAULT_TIME_TOLERANCE, DIRECTIONS
@@ -40,6 +45,34 @@ def _counts(option: str, text: str | None) -> list[int] | None:
     return values
 
 
+def _options(*options: Callable[[Any], Any]) -> Callable[[Any], Any]:
+    """The options, in this order, as one decorator (those two imports of one's own data share)."""
+    def apply(f: Any) -> Any:
+        for option in reversed(options):
+            f = option(f)
+        return f
+    return apply
+
+
+_window_options = _options(
+    click.option("--windows", default=None, metavar="N,N,...",
+                 help="Windowed examples of these frame counts (robot protocol: 10,15,20,25,30); "
+                      "default: one example over all frames."),
+    click.option("--n-obs", type=click.IntRange(min=2), default=None,
+                 help="Observations per windowed example (default 10)."))
+_pose_option = click.option(
+    "--pose", type=click.Choice(DIRECTIONS), default="camera-to-world", show_default=True,
+    help="What the --poses matrices map (TUM's and KITTI's map the camera to the world).")
+_store_options = _options(
+    click.option("--d1", type=float, default=None,
+                 help="Known depth (m) at the closest frame of a static object; labels every example."),
+    click.option("--name", default=None, help="Name used in the store and its example ids "
+                 "(default: the output's name)."),
+    click.option("--format", "fmt", type=click.Choice(["zarr", "hdf5"]), default=None,
+                 help="Store backend (default: from the output suffix, else zarr)."),
+    click.option("--overwrite", is_flag=True, help="Replace an existing store."))
+
+
 @click.group("import")
 def import_group() -> None:
     """Import real data: the official ODMS release, ODMD's sets, your own recording, SYNTHIA.
@@ -49,6 +82,7 @@ def import_group() -> None:
       odms-data import odms ODMS/data -o stores/
       odms-data import odmd ODMD/data -o odmd-stores/
       odms-data import recording masks/ --positions positions.csv -o cup.zarr
+      odms-data import detections tracks.txt --track 3 --image-size 640x480 --poses traj.txt
       odms-data import synthia SYNTHIA-SEQS-01-DAWN SYNTHIA-SEQS-02-FOG -o driving.zarr
     """
 
@@ -152,8 +186,7 @@ def odmd(data_dir, out_dir, sets, fmt, overwrite, as_json):
 @click.option("--poses", type=click.Path(), default=None,
               help="Camera poses instead of --positions: 4x4 matrices (text rows of 16 numbers or .npy), "
                    "KITTI odometry 3x4 rows, or a TUM trajectory (schemas/RECORDING.md).")
-@click.option("--pose", type=click.Choice(DIRECTIONS), default="camera-to-world", show_default=True,
-              help="What the --poses matrices map (TUM's and KITTI's map the camera to the world).")
+@_pose_option
 @click.option("--time-tolerance", type=click.FloatRange(min=0), default=DEFAULT_TIME_TOLERANCE,
               show_default=True, help="Seconds between a frame's time (its file name) and its TUM pose.")
 @click.option("--max-rotation", type=click.FloatRange(0, 180), default=DEFAULT_MAX_ROTATION,
@@ -161,20 +194,10 @@ def odmd(data_dir, out_dir, sets, fmt, overwrite, as_json):
                                        "refused and listed.")
 @click.option("-o", "--output", type=click.Path(), default=None,
               help="Output store (default: <MASK_DIR name>.zarr).")
-@click.option("--windows", default=None, metavar="N,N,...",
-              help="Windowed examples of these frame counts (robot protocol: 10,15,20,25,30); "
-                   "default: one example over all frames.")
-@click.option("--n-obs", type=click.IntRange(min=2), default=None,
-              help="Observations per windowed example (default 10).")
+@_window_options
 @click.option("--threshold", type=click.IntRange(0, 255), default=DEFAULT_THRESHOLD, show_default=True,
               help="Non-binary masks (JPEG, anti-aliased): pixels >= this are object.")
-@click.option("--d1", type=float, default=None,
-              help="Known depth (m) at the closest frame of a static object; labels every example.")
-@click.option("--name", default=None, help="Name used in the store and its example ids "
-              "(default: the output's name).")
-@click.option("--format", "fmt", type=click.Choice(["zarr", "hdf5"]), default=None,
-              help="Store backend (default: from the output suffix, else zarr).")
-@click.option("--overwrite", is_flag=True, help="Replace an existing store.")
+@_store_options
 @click.option("--skip-bad", is_flag=True, help="Leave out bad rows and files, report what was skipped.")
 @click.option("--workers", type=click.IntRange(1, 1024), default=None,
               show_default="all cores", help="Decoding processes.")
@@ -214,6 +237,104 @@ def recording(mask_dir, positions, poses, pose, time_tolerance, max_rotation, ou
     echo_text(f"wrote {result.path}: {counts['examples']} example(s) ({counts['labelled']} labelled), "
                f"{counts['frames']} frames, digest {result.attrs.digest}")
     _report_skipped(result, "row(s) or file(s)" if poses is None else "file(s) or turning example(s)")
+
+
+def _image_size(text: str | None) -> tuple[int, int] | None:
+    """(height, width) from WIDTHxHEIGHT."""
+    if text is None:
+        return None
+    parts = text.lower().split("x")
+    if len(parts) != 2 or not all(p.strip().isdigit() and len(p.strip()) <= 6 for p in parts):
+        raise InputError(f"--image-size '{text[:40]}': expected WIDTHxHEIGHT in pixels, e.g. 640x480")
+    return int(parts[1]), int(parts[0])
+
+
+def _detections_format(given: str | None, path: str) -> str:
+    if given is not None:
+        return given
+    p = Path(path)
+    return "yolo" if p.is_dir() else "coco" if p.suffix.lower() == ".json" else "mot"
+
+
+@import_group.command("detections")
+@click.argument("detections", type=click.Path())
+@click.option("--from", "source_format", type=click.Choice(["mot", "coco", "yolo"]), default=None,
+              help="The detections' format (default: a folder is YOLO, a .json COCO, else MOTChallenge).")
+@click.option("--poses", type=click.Path(), required=True,
+              help="Camera poses: 4x4 matrices (text rows of 16 numbers or .npy), KITTI odometry 3x4 rows, "
+                   "or a TUM trajectory (schemas/RECORDING.md), one per frame or matched by time.")
+@_pose_option
+@click.option("--track", type=int, default=None, help="The object's track id (MOTChallenge).")
+@click.option("--category", type=int, default=None,
+              help="The object's category id (COCO, YOLO), chosen by best score and followed by overlap.")
+@click.option("--min-iou", type=click.FloatRange(0, 1), default=DEFAULT_MIN_IOU, show_default=True,
+              help="Overlap with the box chosen last that continues the object; below it, a miss.")
+@click.option("--images", type=click.Path(), default=None,
+              help="COCO: the dataset's JSON with its image list; YOLO: the images' folder (their size).")
+@click.option("--image-size", default=None, metavar="WxH", help="The images' size (MOTChallenge, YOLO).")
+@click.option("--masks", is_flag=True, help="A store of masks from COCO results' RLE segmentations.")
+@click.option("--fps", type=float, default=None,
+              help="Frame rate: frame k at --start-time + k / fps, to match TUM poses by time.")
+@click.option("--start-time", type=float, default=None,
+              help="The first frame's time, s (with --fps; default: the first TUM pose's).")
+@click.option("--time-tolerance", type=click.FloatRange(min=0), default=DEFAULT_TIME_TOLERANCE,
+              show_default=True, help="Seconds between a frame's time and its TUM pose.")
+@click.option("--max-rotation", type=click.FloatRange(0, 180), default=DEFAULT_MAX_ROTATION,
+              show_default=True, help="Degrees an example's frames may turn; beyond, it is refused, listed.")
+@click.option("-o", "--output", type=click.Path(), default=None,
+              help="Output store (default: <DETECTIONS name>.zarr).")
+@_window_options
+@_store_options
+@click.option("--json", "as_json", is_flag=True, help="Print what was written as JSON.")
+def detections(detections, source_format, poses, pose, track, category, min_iou, images, image_size, masks,
+               fps, start_time, time_tolerance, max_rotation, output, windows, n_obs, d1, name, fmt,
+               overwrite, as_json):
+    """Import a detector's or tracker's boxes of one object and the camera's poses.
+
+    DETECTIONS is a MOTChallenge file (frame,id,x,y,w,h,conf,...), COCO results JSON
+    (image_id, category_id, bbox, score) or a folder of YOLO .txt files (class cx cy w h [conf]).
+    The object is a track (--track), or the detections of a category (--category) chosen by best
+    score in the first frame and followed by overlap; frames where two candidates were close are
+    listed. A frame without its box is a missed detection. Boxes become a store of boxes with
+    ODMD's camera movement; COCO RLE segmentations, with --masks, a store of masks (needs
+    pycocotools). Formats and rules: docs/DETECTIONS.md.
+
+    \b
+    Examples:
+      odms-data import detections gt.txt --track 3 --image-size 640x480 --poses tum.txt --fps 30
+      odms-data import detections results.json --images instances.json --category 47 --poses c2w.npy
+      odms-data import detections labels/ --images frames/ --category 0 --poses kitti.txt \\
+          --windows 10,15,20,25,30 --n-obs 10 --d1 0.4 -o cup.zarr
+    """
+    from ..importers.detections import Camera, Which, import_detections
+
+    window_list = _counts("--windows", windows)
+    if n_obs is not None and window_list is None:
+        raise InputError("--n-obs applies to windowed examples; give --windows too")
+    camera = Camera(Path(poses), pose, fps, start_time, time_tolerance, max_rotation)
+    with Bars("importing {}") as bars:
+        done = import_detections(
+            _detections_format(source_format, detections), detections, camera, output,
+            which=Which(track, category, min_iou), images=images, image_size=_image_size(image_size),
+            masks=masks, windows=window_list, n_obs=n_obs or 10, d1=d1, name=name, store_format=fmt,
+            overwrite=overwrite, progress=bars,
+        )
+    result, counts = done.result, done.result.attrs.counts
+    if as_json:
+        echo_json({"output": result.path, "kind": result.attrs.kind, "examples": counts["examples"],
+                   "labelled": counts["labelled"], "frames": done.frames, "missed": done.missed,
+                   "close": done.close, "digest": result.attrs.digest, "skipped": result.skipped})
+        return
+    echo_text(f"wrote {result.path}: {counts['examples']} example(s) ({counts['labelled']} labelled) of "
+              f"{result.attrs.kind} from {done.frames} frames, digest {result.attrs.digest}")
+    echo_text(f"missed detections: {len(done.missed)} frame(s)" + (
+        f" ({', '.join(one_line(m) for m in done.missed[:20])}{', ...' if len(done.missed) > 20 else ''})"
+        if done.missed else ""))
+    if done.close:
+        echo_text(f"close choices: {len(done.close)} frame(s) where the rule chose between close candidates:")
+        for line in done.close:
+            echo_text(f"  {one_line(line)}")
+    _report_skipped(result, "turning example(s)")
 
 
 @import_group.command("synthia")

@@ -226,12 +226,31 @@ def predict(run, data, output, checkpoint, model, n_obs, workers, device, overwr
             rows, config, at = prediction.predict(RunFolder(run), stores, output, which=checkpoint,
                                                   workers=workers, device=device, overwrite=overwrite,
                                                   progress=bars)
+    as_boxes = _masks_read_as_boxes(config.model, stores)
     if as_json:
         echo_json({"output": output, "predictions": rows, "model": config.model, "checkpoint": checkpoint,
-                   "iterations": at})
+                   "iterations": at, **({"masks_read_as_boxes": as_boxes} if as_boxes else {})})
         return
     iterations = (f"iteration {next(iter(at.values()))}" if len(set(at.values())) == 1
                   else "iterations " + ", ".join(f"{split} {i}" for split, i in at.items()))
     what = f"{checkpoint}" if from_file else f"{checkpoint} checkpoint, {iterations}"
     click.echo(f"wrote {output}: {rows} predictions of {config.model} ({what}) for "
                f"{', '.join(sorted(stores))}")
+    if as_boxes:
+        click.echo(f"{', '.join(as_boxes)}: stores of masks, read as boxes (the box rule) each paired with "
+                   "its own camera movement, not as ODMD's converted odms_detection sets pair them: these "
+                   "are not the authors' figures on those sets (docs/ODMD.md, \"Camera movement pairing\")")
+
+
+def _masks_read_as_boxes(model: str, stores: dict[str, Path | str]) -> list[str]:
+    """The splits of `stores` that DBox-family `model` read as boxes from stores of masks."""
+    if VARIANTS[model].family != "dbox":
+        return []
+    from ..store.reader import open_store
+
+    masks = []
+    for split, path in stores.items():
+        with open_store(str(path)) as s:
+            if s.kind == "masks":
+                masks.append(split)
+    return sorted(masks)

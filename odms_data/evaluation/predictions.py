@@ -349,6 +349,17 @@ def write_predictions(
 ) -> int:
     """Write `(split, example_id, d1)` rows as every output is written (outputs.atomic_file);
     floats round-trip exactly. Returns the row count."""
+    frame = predictions_table(path, rows)
+    with atomic_file(path, overwrite=overwrite, option="output") as partial:
+        frame.to_csv(partial, index=False, lineterminator="\n")
+    return len(frame)
+
+
+def predictions_table(
+    path: str | Path, rows: Iterable[tuple[str, str, float]] | pd.DataFrame
+) -> pd.DataFrame:
+    """The rows as a predictions file's table, refused (naming `path`, where they were to go) when a
+    d1 is NaN or infinite; its `to_csv(index=False)` is the file, floats round-tripping exactly."""
     frame = rows if isinstance(rows, pd.DataFrame) else pd.DataFrame(list(rows), columns=list(COLUMNS))
     frame = frame[list(COLUMNS)]
     bad = ~np.isfinite(frame["d1"].to_numpy(np.float64))
@@ -356,7 +367,5 @@ def write_predictions(
         first = frame[bad].iloc[0]
         raise InputError(f"{int(bad.sum())} prediction(s) are NaN or infinite, first for "
                          f"{first['example_id']} of split {first['split']}; nothing was written to {path}")
-    with atomic_file(path, overwrite=overwrite, option="output") as partial:
-        frame.to_csv(partial, index=False, lineterminator="\n")
-    return len(frame)
+    return frame
 

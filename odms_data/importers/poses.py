@@ -7,16 +7,16 @@ and conventions: schemas/RECORDING.md.
 
 from __future__ import annotations
 
-import io
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError
-from ..inputs import open_input
 from ..pickles import load_npy
+from .text_rows import number, text_rows
 
 DIRECTIONS = ("camera-to-world", "world-to-camera")
 Pose = tuple[np.ndarray, np.ndarray]  # camera centre, unit optical axis; world coordinates, m
@@ -81,66 +81,52 @@ def camera_to_world(matrices: np.ndarray, direction: str) -> np.ndarray:
 # --- reading ---------------------------------------------------------------------------------
 
 
-def _quaternion_matrix(q: np.ndarray) -> np.ndarray:
-    """The rotation of the unit quaternion (qx, qy, qz, qw)."""
-    x, y, z, w = q
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+def _quaternion_matrices(q: np.ndarray) -> np.ndarray:
+    """(n, 3, 3) rotations of the (n, 4) unit quaternions (qx, qy, qz, qw)."""
+    x, y, z, w = q.T
+    return np.stack([np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
+                     np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
+                     np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1)], 1)
 
 
-def _row_matrix(values: np.ndarray, fmt: str, where: str) -> np.ndarray:
-    """One checked row's 4x4 matrix (TUM: without its timestamp)."""
-    M = np.eye(4)
+def _checked_matrices(values: np.ndarray, fmt: str, where: Callable[[int], str]) -> np.ndarray:
+    """(n, 4, 4) matrices of rows of numbers (TUM: without the timestamp), every row checked;
+    InputError naming the first bad row (`where(k)`)."""
+    n = len(values)
+    M = np.tile(np.eye(4), (n, 1, 1))
     if fmt == "tum":
-        q = values[3:]
-        norm = float(np.linalg.norm(q))
-        if not abs(norm - 1) <= QUATERNION_TOLERANCE:
-            raise InputError(f"{where}: quaternion qx qy qz qw has norm {norm:.6g}, not 1 (within "
+        q = values[:, 3:]
+        norm = np.linalg.norm(q, axis=1)
+        for k in np.flatnonzero(~(np.abs(norm - 1) <= QUATERNION_TOLERANCE))[:1]:
+            raise InputError(f"{where(k)}: quaternion qx qy qz qw has norm {norm[k]:.6g}, not 1 (within "
                              f"{QUATERNION_TOLERANCE:g})")
-        M[:3, :3], M[:3, 3] = _quaternion_matrix(q / norm), values[:3]
+        M[:, :3, :3], M[:, :3, 3] = _quaternion_matrices(q / norm[:, None]), values[:, :3]
         return M
-    M[: len(values) // 4] = values.reshape(-1, 4)
-    if fmt == "4x4" and not np.allclose(M[3], (0, 0, 0, 1), atol=1e-6):
-        raise InputError(f"{where}: the matrix's last row is {' '.join(f'{v:g}' for v in M[3])}, not 0 0 0 1")
-    problem = rotation_problem(M[:3, :3])
-    if problem:
-        raise InputError(f"{where}: {problem}")
+    M[:, : values.shape[1] // 4] = values.reshape(n, -1, 4)
+    if fmt == "4x4":
+        for k in np.flatnonzero(~np.isclose(M[:, 3], (0, 0, 0, 1), rtol=0, atol=1e-6).all(axis=1))[:1]:
+            raise InputError(f"{where(k)}: the matrix's last row is {' '.join(f'{v:g}' for v in M[k, 3])}, "
+                             "not 0 0 0 1")
+    R = M[:, :3, :3]
+    off = np.abs(np.einsum("nji,njk->nik", R, R) - np.eye(3)).max(axis=(1, 2))
+    for k in np.flatnonzero(~(off <= ROTATION_TOLERANCE) | (np.linalg.det(R) < 0))[:1]:
+        raise InputError(f"{where(k)}: {rotation_problem(R[k])}")
     return M
 
 
 def _numbers(fields: list[str], where: str) -> np.ndarray:
-    values = np.empty(len(fields))
-    for k, t in enumerate(fields):
-        try:
-            values[k] = float(t)
-        except ValueError:
-            raise InputError(f"{where}, field {k + 1}: '{t[:40]}' is not a number") from None
-        if not math.isfinite(values[k]):
-            raise InputError(f"{where}, field {k + 1}: '{t[:40]}' is not a finite number")
-    return values
+    try:
+        values = np.array([float(t) for t in fields])
+        if np.isfinite(values).all():
+            return values
+    except ValueError:
+        pass
+    return np.array([number(t, f"{where}, field {k + 1}:") for k, t in enumerate(fields)], np.float64)
 
 
 def _text_lines(path: Path) -> list[tuple[int, str]]:
-    """The file's data lines (not blank, not # comments) with their line numbers, read line by line
-    with each line's length and the count of lines bounded."""
-    rows = []
-    try:
-        with io.TextIOWrapper(open_input(path, "a poses file"), encoding="utf-8") as f:
-            for i in range(1, MAX_LINES + 2):
-                line = f.readline(MAX_LINE_CHARS + 1)
-                if not line:
-                    break
-                if i > MAX_LINES:
-                    raise InputError(f"{path}: more than {MAX_LINES} lines")
-                if len(line) > MAX_LINE_CHARS:
-                    raise InputError(f"{path} line {i}: longer than a pose row can be ({MAX_LINE_CHARS} "
-                                     "characters)")
-                line = line.strip()
-                if line and not line.startswith("#"):
-                    rows.append((i, line))
-    except UnicodeDecodeError as e:
-        raise InputError(f"{path}: not a text file (a byte at {e.start} of a line is not UTF-8)") from None
+    """The file's data lines with their line numbers (text_rows), at most MAX_POSES of them."""
+    rows = list(text_rows(path, MAX_LINE_CHARS, MAX_LINES, "a pose row"))
     if len(rows) > MAX_POSES:
         raise InputError(f"{path}: more than {MAX_POSES} poses")
     if not rows:
@@ -155,19 +141,22 @@ def _read_text(path: Path) -> PoseTable:
         raise InputError(f"{path} line {rows[0][0]}: {first} numbers; a pose row has 16 (a 4x4 matrix), "
                          "12 (KITTI's 3x4) or 8 (TUM: timestamp tx ty tz qx qy qz qw)")
     fmt = FIELDS[first]
-    matrices, times = np.empty((len(rows), 4, 4)), np.empty(len(rows))
+    values = np.empty((len(rows), first))
     for k, (i, line) in enumerate(rows):
-        where, fields = f"{path} line {i}", line.split()
+        fields = line.split()
         if len(fields) != first:
-            raise InputError(f"{where}: {len(fields)} numbers, expected {first} as on line {rows[0][0]}")
-        values = _numbers(fields, where)
-        if fmt == "tum":
-            times[k] = values[0]
-            if k and not times[k] > times[k - 1]:
-                raise InputError(f"{where}: timestamp {fields[0]} is not after the line before's")
-            values = values[1:]
-        matrices[k] = _row_matrix(values, fmt, where)
-    return PoseTable(path, fmt, matrices, times if fmt == "tum" else None)
+            raise InputError(f"{path} line {i}: {len(fields)} numbers, expected {first} as on line "
+                             f"{rows[0][0]}")
+        values[k] = _numbers(fields, f"{path} line {i}")
+    times = values[:, 0] if fmt == "tum" else None
+    if times is not None:
+        for k in np.flatnonzero(~(times[1:] > times[:-1]))[:1]:
+            line, text = rows[k + 1]
+            raise InputError(f"{path} line {line}: timestamp {text.split()[0]} is not after the line "
+                             "before's")
+    matrices = _checked_matrices(values[:, 1:] if fmt == "tum" else values, fmt,
+                                 lambda k: f"{path} line {rows[k][0]}")
+    return PoseTable(path, fmt, matrices, times)
 
 
 def _read_npy(path: Path) -> PoseTable:
@@ -175,8 +164,7 @@ def _read_npy(path: Path) -> PoseTable:
     array = load_npy(path, (4, 4), MAX_POSES, "poses")
     for k in np.flatnonzero(~np.isfinite(array).all(axis=(1, 2)))[:1]:
         raise InputError(f"{path} pose {k}: holds a number that is not finite")
-    for k in range(len(array)):
-        _row_matrix(array[k].ravel(), "4x4", f"{path} pose {k}")
+    _checked_matrices(array.reshape(len(array), 16), "4x4", lambda k: f"{path} pose {k}")
     return PoseTable(path, "npy", array, None)
 
 
@@ -264,6 +252,20 @@ def match_times(table: PoseTable, frame_times: np.ndarray, frames: list[str], to
         raise InputError(f"{frames[k]}: no pose in {table.path} within {tolerance:g} s of its time "
                          f"{frame_times[k]:.6f} (nearest {gap[k]:.3g} s away)")
     return nearest
+
+
+def name_times(names: list[str]) -> np.ndarray:
+    """Each frame's time from its name (1305031102.175304.png), to match TUM poses."""
+    times = np.empty(len(names))
+    for k, name in enumerate(names):
+        try:
+            times[k] = float(Path(name).stem)
+        except ValueError:
+            times[k] = math.nan
+        if not math.isfinite(times[k]):
+            raise InputError(f"{name}: its name is not a time in seconds; TUM poses are matched to frames "
+                             "named by their time (e.g. 1305031102.175304.png)")
+    return times
 
 
 def axis_positions(c2w: np.ndarray) -> np.ndarray:

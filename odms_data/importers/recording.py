@@ -23,7 +23,7 @@ import numpy as np
 from ..errors import InputError
 from ..inputs import open_input
 from ..paths import inside
-from ..protocol import protocol_windows
+from ..protocol import WHOLE, protocol_windows, window_id
 from ..store.format import store_path
 from ..store.oddity import SKIPPED, Oddity
 from .builder import Importer, Progress
@@ -39,10 +39,12 @@ from .poses import (
     camera_to_world,
     check_pose_direction,
     match_times,
+    name_times,
     read_poses,
     window_rotations,
 )
 from .result import ImportResult
+from .text_rows import number
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -55,13 +57,7 @@ FRAMES_PER_SHARD = 512
 def _number(text: str, where: str, column: str, *, blank_ok: bool = False) -> float:
     if blank_ok and text.strip() in ("", "nan", "NaN", "NA"):
         return math.nan
-    try:
-        value = float(text)
-    except ValueError:
-        raise InputError(f"{where}: {column} '{text}' is not a number") from None
-    if not math.isfinite(value):
-        raise InputError(f"{where}: {column} '{text}' is not a finite number")
-    return value
+    return number(text, f"{where}: {column}")
 
 
 def _read_table(positions: Path) -> pd.DataFrame:
@@ -153,20 +149,6 @@ def read_positions(
         skips.oddities
 
 
-def _frame_times(files: list[Path]) -> np.ndarray:
-    """Each frame's time from its file name (1305031102.175304.png)."""
-    times = np.empty(len(files))
-    for k, f in enumerate(files):
-        try:
-            times[k] = float(f.stem)
-        except ValueError:
-            times[k] = math.nan
-        if not math.isfinite(times[k]):
-            raise InputError(f"{f}: its name is not a time in seconds; TUM poses are matched to frames "
-                             "named by their time (e.g. 1305031102.175304.png)")
-    return times
-
-
 def read_pose_frames(
     poses: Path, mask_dir: Path, direction: str, time_tolerance: float
 ) -> tuple[list[Path], np.ndarray, np.ndarray]:
@@ -180,8 +162,8 @@ def read_pose_frames(
                              "(one pose per mask, in the order of the masks' names)")
         matrices = table.matrices
     else:
-        matrices = table.matrices[match_times(table, _frame_times(files), [str(f) for f in files],
-                                              time_tolerance)]
+        names = [str(f) for f in files]
+        matrices = table.matrices[match_times(table, name_times(names), names, time_tolerance)]
     c2w = camera_to_world(matrices, direction)
     check_pose_direction(str(poses), {i: camera_pose(M, "camera-to-world") for i, M in enumerate(c2w)},
                          direction)
@@ -200,6 +182,33 @@ def _turning(
                          f"max_rotation {max_rotation:g}") for e in np.flatnonzero(~keep)]
 
 
+def windowed_examples(
+    name: str, where: Path, n: int, windows: list[int] | None, n_obs: int, c2w: np.ndarray | None,
+    max_rotation: float,
+) -> tuple[list[str], np.ndarray, list[Oddity]]:
+    """The ids and frame rows (E, k) of the examples over `n` frames ordered closest first: one over
+    all frames, or the robot protocol's windows; those whose frames turn more than `max_rotation`
+    degrees (`c2w` in that order) are left out, and returned as oddities."""
+    if windows:
+        too_long = [w for w in windows if w > n]
+        if too_long:
+            raise InputError(f"{where}: window of {too_long[0]} frames does not fit the recording's "
+                             f"{n} frames")
+        if n_obs > min(windows):
+            raise InputError(f"n_obs {n_obs} is more than the shortest window ({min(windows)} frames)")
+        digits = max(2, len(str(n - 1)))
+        spans = protocol_windows(n, windows, n_obs)
+        ids = [window_id(name, w, s, digits) for w, s, _ in spans]
+        frame_index = np.stack([idx for _, _, idx in spans])
+    else:
+        ids, frame_index = [f"{name}/{WHOLE}"], np.arange(n)[None, :]
+    keep, turned = _turning(ids, frame_index, c2w, max_rotation)
+    if not keep.any():
+        raise InputError(f"{where}: every example turns more than max_rotation {max_rotation:g} "
+                         f"degrees ({turned[0].detail})")
+    return [i for i, k in zip(ids, keep, strict=True) if k], frame_index[keep], turned
+
+
 def make_plan(
     name: str, mask_dir: Path, files: list[Path], z: np.ndarray, depth: np.ndarray,
     windows: list[int] | None, n_obs: int, threshold: int, skipped: list[Oddity],
@@ -210,25 +219,8 @@ def make_plan(
     order = np.argsort(z, kind="stable")
     files, z, depth = [files[i] for i in order], z[order], depth[order]
     c2w = c2w[order] if c2w is not None else None
-    n = len(files)
-    if windows:
-        too_long = [w for w in windows if w > n]
-        if too_long:
-            raise InputError(f"{mask_dir}: window of {too_long[0]} frames does not fit the recording's "
-                             f"{n} frames")
-        if n_obs > min(windows):
-            raise InputError(f"n_obs {n_obs} is more than the shortest window ({min(windows)} frames)")
-        digits = max(2, len(str(n - 1)))
-        spans = protocol_windows(n, windows, n_obs)
-        ids = [f"{name}/w{w}-{s:0{digits}d}" for w, s, _ in spans]
-        frame_index = np.stack([idx for _, _, idx in spans])
-    else:
-        ids, frame_index = [f"{name}/all"], np.arange(n)[None, :]
-    keep, turned = _turning(ids, frame_index, c2w, max_rotation)
-    if not keep.any():
-        raise InputError(f"{mask_dir}: every example turns more than max_rotation {max_rotation:g} "
-                         f"degrees ({turned[0].detail})")
-    ids, frame_index = [i for i, k in zip(ids, keep, strict=True) if k], frame_index[keep]
+    ids, frame_index, turned = windowed_examples(name, mask_dir, len(files), windows, n_obs, c2w,
+                                                 max_rotation)
     d1 = depth[frame_index[:, 0]]
     return MaskPlan(
         split=name, domain="recording", source=f"recording {mask_dir.name}",

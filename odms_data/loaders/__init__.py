@@ -7,13 +7,12 @@ TensorFlow and are imported only when asked for (named so that none shadows its 
 package). See docs/LOADERS.md.
 """
 
-from .box_sources import GeneratedBoxExamples
 from .box_transform import DBOX_TRANSFORM, BoxTransform
 from .numpy_loader import Batches, store_batches, stream_batches
 from .sources import GeneratedExamples, StoreExamples
 from .transforms import LABELS, PAPER_SIZE, Transform
 
 __all__ = [
-    "DBOX_TRANSFORM", "LABELS", "PAPER_SIZE", "Batches", "BoxTransform", "GeneratedBoxExamples",
-    "GeneratedExamples", "StoreExamples", "Transform", "store_batches", "stream_batches",
+    "DBOX_TRANSFORM", "LABELS", "PAPER_SIZE", "Batches", "BoxTransform", "GeneratedExamples",
+    "StoreExamples", "Transform", "store_batches", "stream_batches",
 ]

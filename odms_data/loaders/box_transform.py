@@ -22,6 +22,7 @@ The inputs, in float32 throughout, in the authors' order of operations:
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
@@ -48,6 +49,7 @@ class BoxTransform:
     the label `depth_norm` (the depth divided by `norm`; the depth itself when not normalized),
     `norm` (1 when not normalized) and `depth`, all float32."""
 
+    kind: ClassVar[str] = "boxes"  # the kind of example it takes (kinds.py)
     n_obs: int = DBOX_OBS
     normalized: bool = True
     relative: bool = True

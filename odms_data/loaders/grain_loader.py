@@ -30,13 +30,9 @@ import numpy as np
 
 from ..errors import InputError
 from ..extras import missing
-from ..simulate.box_examples import BoxParams
-from ..simulate.params import GeneratorParams
-from .box_sources import GeneratedBoxExamples
-from .box_transform import BoxTransform
+from .kinds import STANDARD, InputTransform, Params
 from .reused_arrays import ReusedArrays
-from .sources import STANDARD, GeneratedExamples, generated_examples, store_examples, stream_indices
-from .transforms import PAPER_TRANSFORM, Transform
+from .sources import GeneratedExamples, StoreExamples, stream_indices
 
 try:
     import grain
@@ -54,8 +50,8 @@ class StoreSource:
     """The examples of the store at `path` as a grain random-access data source (len and row
     indexing); picklable, the store is opened in each worker process on first use."""
 
-    def __init__(self, path: str, transform: Transform | BoxTransform = PAPER_TRANSFORM) -> None:
-        self.examples = store_examples(path, transform)
+    def __init__(self, path: str, transform: InputTransform | None = None) -> None:
+        self.examples = StoreExamples(path, transform)
 
     def __len__(self) -> int:
         return len(self.examples)
@@ -70,7 +66,7 @@ class StoreSource:
 class _StreamBatch:
     """Element k of the stream: the batch of generator indices k * batch_size + [0, batch_size)."""
 
-    def __init__(self, examples: GeneratedExamples | GeneratedBoxExamples, batch_size: int) -> None:
+    def __init__(self, examples: GeneratedExamples, batch_size: int) -> None:
         self.examples, self.batch_size = examples, batch_size
         self.arrays = ReusedArrays()  # batches nothing holds any more are drawn into again
 
@@ -83,9 +79,9 @@ def stream_dataset(
     batches_per_epoch: int,
     *,
     epochs: int = 1,
-    params: GeneratorParams | BoxParams = STANDARD,
+    params: Params = STANDARD,
     seed: int = 0,
-    transform: Transform | BoxTransform = PAPER_TRANSFORM,
+    transform: InputTransform | None = None,
     direct: bool = False,
 ) -> grain.MapDataset:
     """`epochs * batches_per_epoch` batches of freshly generated examples, no example twice.
@@ -93,5 +89,5 @@ def stream_dataset(
     if batch_size < 1 or batches_per_epoch < 1 or epochs < 1:
         raise InputError(f"need batch_size, batches_per_epoch and epochs >= 1, got {batch_size}, "
                          f"{batches_per_epoch}, {epochs}")
-    examples = generated_examples(params, seed, transform, direct)
+    examples = GeneratedExamples(params, seed, transform, direct)
     return grain.MapDataset.range(epochs * batches_per_epoch).map(_StreamBatch(examples, batch_size))

@@ -21,25 +21,12 @@ import numpy as np
 
 from ..errors import InputError
 from ..parallel import end_pool, ordered_map, worker_pool
-from ..simulate.box_examples import BoxParams
-from ..simulate.params import GeneratorParams
-from .box_sources import GeneratedBoxExamples, StoreBoxExamples
-from .box_transform import BoxTransform
+from .kinds import STANDARD, Indices, InputTransform, Params
 from .reused_arrays import ReusedArrays
 from .shared_batches import Arena, BlockPool
-from .sources import (
-    STANDARD,
-    GeneratedExamples,
-    Indices,
-    StoreExamples,
-    generated_examples,
-    store_examples,
-    store_order,
-    stream_indices,
-)
-from .transforms import PAPER_TRANSFORM, Transform
+from .sources import GeneratedExamples, StoreExamples, store_order, stream_indices
 
-Source = StoreExamples | StoreBoxExamples | GeneratedExamples | GeneratedBoxExamples
+Source = StoreExamples | GeneratedExamples
 _source: Source  # a worker's source (set by _set_source)
 
 
@@ -113,7 +100,7 @@ def store_batches(
     path: str,
     batch_size: int,
     *,
-    transform: Transform | BoxTransform = PAPER_TRANSFORM,
+    transform: InputTransform | None = None,
     shuffle: bool = False,
     seed: int = 0,
     epoch: int = 0,
@@ -122,7 +109,7 @@ def store_batches(
 ) -> Batches:
     """Batches of the store at `path`, in row order or shuffled by (seed, epoch)."""
     _check_batch_size(batch_size)
-    source = store_examples(path, transform)
+    source = StoreExamples(path, transform)
     order = store_order(len(source), shuffle, seed, epoch)
     stop = len(order) - len(order) % batch_size if drop_last else len(order)
     plan = [order[i : i + batch_size] for i in range(0, stop, batch_size)]
@@ -133,10 +120,10 @@ def stream_batches(
     batch_size: int,
     batches: int,
     *,
-    params: GeneratorParams | BoxParams = STANDARD,
+    params: Params = STANDARD,
     seed: int = 0,
     epoch: int = 0,
-    transform: Transform | BoxTransform = PAPER_TRANSFORM,
+    transform: InputTransform | None = None,
     direct: bool = False,
     workers: int = 0,
 ) -> Batches:
@@ -145,5 +132,5 @@ def stream_batches(
     _check_batch_size(batch_size)
     if batches < 1 or epoch < 0:
         raise InputError(f"need batches >= 1 and epoch >= 0, got batches={batches}, epoch={epoch}")
-    source = generated_examples(params, seed, transform, direct)
+    source = GeneratedExamples(params, seed, transform, direct)
     return Batches(source, [stream_indices(b, batch_size, batches, epoch) for b in range(batches)], workers)

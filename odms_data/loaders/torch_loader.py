@@ -23,12 +23,9 @@ import numpy as np
 
 from ..errors import InputError
 from ..extras import missing
-from ..simulate.box_examples import BoxParams
-from ..simulate.params import GeneratorParams
-from .box_transform import BoxTransform
+from .kinds import STANDARD, InputTransform, Params
 from .shared_batches import BlockLayout, received_arrays, worker_blocks
-from .sources import STANDARD, generated_examples, store_examples, stream_indices
-from .transforms import PAPER_TRANSFORM, Transform
+from .sources import GeneratedExamples, StoreExamples, stream_indices
 
 try:
     import torch
@@ -46,8 +43,8 @@ class StoreDataset(Dataset):
     BoxTransform); the store is opened in each worker on first use. Shuffle reproducibly with
     DataLoader(..., shuffle=True, generator=torch.Generator().manual_seed(seed))."""
 
-    def __init__(self, path: str, transform: Transform | BoxTransform = PAPER_TRANSFORM) -> None:
-        self.examples = store_examples(path, transform)
+    def __init__(self, path: str, transform: InputTransform | None = None) -> None:
+        self.examples = StoreExamples(path, transform)
 
     def __len__(self) -> int:
         return len(self.examples)
@@ -71,9 +68,9 @@ class StreamDataset(IterableDataset):
         batch_size: int,
         batches_per_epoch: int,
         *,
-        params: GeneratorParams | BoxParams = STANDARD,
+        params: Params = STANDARD,
         seed: int = 0,
-        transform: Transform | BoxTransform = PAPER_TRANSFORM,
+        transform: InputTransform | None = None,
         direct: bool = False,
         start: int = 0,
     ) -> None:
@@ -83,7 +80,7 @@ class StreamDataset(IterableDataset):
             )
         if not 0 <= start < batches_per_epoch:
             raise InputError(f"start must be a batch of the epoch, 0..{batches_per_epoch - 1}; got {start}")
-        self.examples = generated_examples(params, seed, transform, direct)
+        self.examples = GeneratedExamples(params, seed, transform, direct)
         self.batch_size, self.batches_per_epoch, self.start = batch_size, batches_per_epoch, start
         # In shared memory, so that set_epoch reaches workers started earlier (persistent_workers=True):
         # DataLoader hands a worker the dataset once, and pickles this tensor as a handle, not a copy.

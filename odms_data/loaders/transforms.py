@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Any
+from typing import Any, ClassVar
 
 import cv2
 import numpy as np
@@ -69,6 +69,7 @@ class Transform:
     uint8 0/1 masks (the covered fractions rounded) instead of the paper's float32 fractions.
     """
 
+    kind: ClassVar[str] = "masks"  # the kind of example it takes (kinds.py)
     size: tuple[int, int] | None = PAPER_SIZE
     n_obs: int | None = None
     radial: bool = False

@@ -98,10 +98,15 @@ def predict_from_weights(
     iteration is reported as 0."""
     check_replaceable(output, overwrite, option="-o", suffixes=(".csv",))
     dev = pick_device(device)
-    config = TrainConfig.recipe(model, n_obs=n_obs)
-    net = model_of(config).load_file(weights).to(dev).eval()
-    loaded = dict.fromkeys(sorted(stores, key=split_order), (net, config, 0))
+    loaded = dict.fromkeys(sorted(stores, key=split_order), load_weights(weights, model, n_obs, dev))
     return _predict(loaded, stores, output, workers, dev, overwrite, progress)
+
+
+def load_weights(weights: str | Path, model: str, n_obs: int, device: torch.device) -> Loaded:
+    """The network `model` of n_obs observations holding the state dict file `weights`, in eval mode,
+    its config, and 0 for its iteration."""
+    config = TrainConfig.recipe(model, n_obs=n_obs)
+    return model_of(config).load_file(weights).to(device).eval(), config, 0
 
 
 def _predict(

@@ -1,7 +1,9 @@
-"""`odms-data generate --boxes PRESET`: a store of boxes (FORMAT.md, version 2) from the seeded
-box generator (box_examples.py), as a store source (store/build.py). Example k of (preset, seed)
-is generator index k, so a store's examples are those the box stream gives for the same (preset,
-seed, index), bit for bit, whatever the workers or the examples per task."""
+"""`odms-data generate --boxes PRESET` (or `--config FILE`): a store of boxes (FORMAT.md, version
+2) from the seeded box generator (box_examples.py), as a store source (store/build.py). Example k
+of (settings, seed) is generator index k, so a store's examples are those the box stream gives for
+the same (settings, seed, index), bit for bit, whatever the workers or the examples per task. The
+store records the preset whose settings it was made with, whether named or read from a config
+file (box_config.py), or null when no preset has them."""
 
 from __future__ import annotations
 
@@ -21,6 +23,7 @@ from .box_examples import (
     BOX_PRESETS,
     DEFAULT_BOX_EXAMPLES_PER_SHARD,
     BoxParams,
+    preset_name,
     sample_box_examples,
 )
 
@@ -63,9 +66,9 @@ def run_box_task(task: BoxTask) -> Rows:
 class GeneratedBoxes(Source):
     """The box generator as a store source: tasks of `per_task` examples."""
 
-    def __init__(self, count: int, preset: str, seed: int, split: str, per_task: int) -> None:
-        self.count, self.preset, self.seed, self.split, self.per_task = count, preset, seed, split, per_task
-        self.params = BOX_PRESETS[preset]
+    def __init__(self, count: int, params: BoxParams, seed: int, split: str, per_task: int) -> None:
+        self.count, self.params, self.seed, self.split, self.per_task = count, params, seed, split, per_task
+        self.preset = preset_name(params)
 
     def sizes(self) -> Sizes:
         n, (H, W) = self.params.num_pos, self.params.image_dim
@@ -91,23 +94,25 @@ class GeneratedBoxes(Source):
                           digest=digest, kind="boxes")
 
 
-def generate_box_store(path: str, count: int, preset: str, seed: int, *, split: str = "generated",
+def generate_box_store(path: str, count: int, params: str | BoxParams, seed: int, *, split: str = "generated",
                        fmt: str | None = None, overwrite: bool = False,
                        progress: Callable[[int], None] | None = None, workers: int | None = None,
                        examples_per_shard: int = DEFAULT_BOX_EXAMPLES_PER_SHARD, scheduler: str | None = None
                        ) -> StoreAttrs:
-    """Write `count` examples of box preset `preset` and `seed` as a store of boxes at `path`,
-    `examples_per_shard` per task, on `workers` local processes (by default none: sampling is
-    cheaper than starting workers, whose fork server loads the mask renderer) or on the Dask cluster
-    of `scheduler`; the store is the same either way."""
-    if preset not in BOX_PRESETS:
-        raise InputError(f"unknown box preset '{preset}'; the presets are {', '.join(BOX_PRESETS)}")
+    """Write `count` examples of `params` (settings, or a box preset's name) and `seed` as a store
+    of boxes at `path`, `examples_per_shard` per task, on `workers` local processes (by default
+    none: sampling is cheaper than starting workers, whose fork server loads the mask renderer) or
+    on the Dask cluster of `scheduler`; the store is the same either way."""
+    if isinstance(params, str):
+        if params not in BOX_PRESETS:
+            raise InputError(f"unknown box preset '{params}'; the presets are {', '.join(BOX_PRESETS)}")
+        params = BOX_PRESETS[params]
     if count < 1 or seed < 0:
         raise InputError(f"need at least one example and a non-negative seed, got {count} and {seed}")
     if examples_per_shard < 1 or (workers is not None and workers < 1):
         raise InputError(f"examples per shard and workers must be at least 1, got {examples_per_shard} "
                          f"and {workers}")
-    source = GeneratedBoxes(count, preset, seed, split, min(examples_per_shard, count))
+    source = GeneratedBoxes(count, params, seed, split, min(examples_per_shard, count))
     tasks = -(-count // source.per_task)
     with Workers.for_work(0.0, tasks, workers, scheduler) as runners:
         return build(source, path, fmt, workers=runners, overwrite=overwrite,

@@ -15,9 +15,7 @@ anywhere) are digested once every frame's digest (`Rows.frame_digests`) is in.
 from __future__ import annotations
 
 import os
-import re
 import sys
-import warnings
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Generator, Iterable, Iterator
 from contextlib import closing, contextmanager
@@ -27,7 +25,6 @@ from typing import Any, Self, TypeVar
 import numpy as np
 
 from ..errors import InputError, StoreError
-from ..outputs import MARKER
 from ..parallel import WorkerPool, cores, end_pool, pool_map, worker_pool, workers_for
 from .backends import MaskSink
 from .digest import StoreDigest, content_digest
@@ -320,13 +317,10 @@ def _check_as_readers_do(partial: str, path: str) -> None:
     refuse: its attributes, arrays and every array's rules, read as `open_store` and the readers
     read them."""
     try:
-        with warnings.catch_warnings():
-            # zarr lists the partial folder's marker (outputs.MARKER) as a foreign object
-            warnings.filterwarnings("ignore", f"Object at {re.escape(MARKER)} is not recognized")
-            with open_store(partial, incomplete=True) as store:
-                for name in arrays_of(store.kind):
-                    if name != "masks":
-                        store.checked(name)
+        with open_store(partial, incomplete=True) as store:
+            for name in arrays_of(store.kind):
+                if name != "masks":
+                    store.checked(name)
     except StoreError as e:
         why = str(e).removeprefix(f"{partial}: ").removesuffix("; run `odms-data validate` on it")
         raise StoreError(f"{path}: the store written would be refused by its readers, so nothing was "

@@ -135,15 +135,8 @@ class Store:
         box, move = self._read("box"), self._read("move")
         return self._checked((box, move), box_problems(box, move))
 
-    @property
-    def box(self) -> np.ndarray:
-        """(F, 4) stored boxes [x_c, y_c, w, h] of a store of boxes."""
-        return self._boxes[0]
-
-    @property
-    def move(self) -> np.ndarray:
-        """(F, 3) stored movements of a store of boxes, to each example's last frame."""
-        return self._boxes[1]
+    box = property(lambda self: self._boxes[0], doc="(F, 4) stored boxes [x_c, y_c, w, h].")
+    move = property(lambda self: self._boxes[1], doc="(F, 3) stored movements to each example's last frame.")
 
     @cached_property
     def _stats(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -151,17 +144,9 @@ class Store:
         self._checked(area, stats_problems(area, largest, bbox, self.height, self.width))
         return area, largest, bbox
 
-    @property
-    def area(self) -> np.ndarray:
-        return self._stats[0]
-
-    @property
-    def largest_area(self) -> np.ndarray:
-        return self._stats[1]
-
-    @property
-    def bbox(self) -> np.ndarray:
-        return self._stats[2]
+    area = property(lambda self: self._stats[0], doc="(F,) object pixels of each frame's mask.")
+    largest_area = property(lambda self: self._stats[1], doc="(F,) pixels of its largest region.")
+    bbox = property(lambda self: self._stats[2], doc="(F, 4) its bounding box x0, y0, x1, y1.")
 
     @property
     def empty_frames(self) -> np.ndarray:

@@ -43,7 +43,7 @@ from .format import (
     format_of_name,
     shape_of,
 )
-from .masks import FrameStats, packed_width
+from .masks import packed_width
 
 
 @dataclass(frozen=True)
@@ -219,18 +219,6 @@ class StoreWriter:
             for c, chunk in enumerate(returned):
                 backend.write_raw_chunk(self.arrays["masks"], start + c * L.frames_per_chunk, chunk)
             backend.check()
-
-    def write_frames(
-        self, start: int, z: np.ndarray, depth: np.ndarray, stats: FrameStats
-    ) -> None:
-        self.write_rows("frame", start, {"z": z, "depth": depth, "area": stats.area,
-                                         "largest_area": stats.largest_area, "bbox": stats.bbox})
-
-    def write_examples(
-        self, start: int, frame_index: np.ndarray, d1: np.ndarray, ids: list[str], sources: list[str]
-    ) -> None:
-        self.write_rows("example", start, {"frame_index": frame_index, "d1": d1, "example_id": ids,
-                                           "source": sources})
 
     def write_rows(self, per: str, start: int, columns: dict[str, Any]) -> None:
         """Rows from `start` of every array per frame or per example (`per`) but the sharded masks,

@@ -110,10 +110,12 @@ ROLES: dict[str, tuple[str, str]] = {  # key -> (kind, suffix of its base value 
     "baseline vosde stores": ("store", ""), "baseline vosde data": ("store", ""),
     "baseline vosde output": (OUT, ".csv"),
     "convert src": ("store", ""), "convert dst": (OUT, ".h5"),
+    "estimate store": ("store", ""), "estimate checkpoint": ("run", ""), "estimate output": (OUT, ""),
+    "estimate plot": (OUT, ".png"), "estimate device": ("text", ""),
     "export stores": ("store", ""), "export output": (OUT, ""), "export name": ("text", ""),
     "export licence": ("text", ""),
     "compare a": ("predictions", ""), "compare b": ("predictions", ""), "compare data": ("store", ""),
-    "generate split_name": ("split", ""), "generate params": ("text", ""),
+    "generate split_name": ("split", ""), "generate params": ("text", ""), "generate configs": ("config", ""),
     "generate store_split": ("text", ""),
     "generate output": (OUT, ".zarr"), "generate scheduler": ("url", ""),
     "import odmd data_dir": ("pickles", ""), "import odmd out_dir": (OUT, ""),
@@ -122,6 +124,10 @@ ROLES: dict[str, tuple[str, str]] = {  # key -> (kind, suffix of its base value 
     "import recording poses": ("poses", ""), "import recording output": (OUT, ".zarr"),
     "import recording windows": ("text", ""),
     "import recording name": ("text", ""),
+    "import detections detections": ("detections", ""), "import detections poses": ("poses", ""),
+    "import detections images": ("detections", ""), "import detections image_size": ("text", ""),
+    "import detections output": (OUT, ".zarr"), "import detections windows": ("text", ""),
+    "import detections name": ("text", ""),
     "import synthia seq_dirs": ("synthia", ""), "import synthia output": (OUT, ".zarr"),
     "import synthia classes": ("text", ""), "import synthia frames": ("text", ""),
     "import synthia name": ("text", ""),
@@ -170,6 +176,8 @@ BASES: dict[str, tuple[dict[str, str | list[str]], tuple[str, ...]]] = {
                        ("tiny.zarr",)),
     "compare": ({"a": "p.csv", "b": "p.csv", "data": ["tiny.zarr"]}, ("p.csv", "tiny.zarr")),
     "convert": ({"src": "tiny.zarr", "dst": "t.h5"}, ("tiny.zarr",)),
+    "estimate": ({"store": "tiny.zarr", "method": "run", "checkpoint": "run", "output": "est", "workers": "0",
+                  "device": "cpu"}, ("tiny.zarr", "run")),
     "export": ({"stores": ["tiny.zarr"], "output": "hub"}, ("tiny.zarr",)),
     "generate": ({"count": "3", "workers": "1", "params": ["image_size=[24,36]", "sizes=[12,20]"],
                   "output": "g.zarr"}, ()),
@@ -180,6 +188,8 @@ BASES: dict[str, tuple[dict[str, str | list[str]], tuple[str, ...]]] = {
     "import recording": ({"mask_dir": "rec", "positions": "positions.csv", "output": "r.zarr",
                           "workers": "1"},
                          ("rec", "positions.csv")),
+    "import detections": ({"detections": "gt.txt", "poses": "poses.txt", "track": "1", "image_size": "64x48",
+                           "output": "d.zarr"}, ("gt.txt", "poses.txt")),
     "import synthia": ({"seq_dirs": ["synthia"], "output": "s.zarr", "workers": "1", "frames": "3",
                         "move": ["1", "60"]},
                        ("synthia",)),
@@ -244,7 +254,8 @@ def any_input(kind: str) -> list[Value]:
     """What every input path gets, whatever it names."""
     good = {"store": "tiny.zarr", "predictions": "p.csv", "run": "run", "checkpoint": "ck.pt",
             "pickles": "odmd", "release": "release", "recording": "rec", "positions": "positions.csv",
-            "poses": "poses.txt", "synthia": "synthia", "entries": "entries"}[kind]
+            "poses": "poses.txt", "synthia": "synthia", "entries": "entries", "config": "turn.yaml",
+            "detections": "gt.txt"}[kind]
     return [
         Value("missing", ("missing.x",)),
         Value("an empty folder", ("empty",), lambda cwd: (cwd / "empty").mkdir()),
@@ -527,13 +538,39 @@ def entries_values() -> list[Value]:
     return [Value(f"entries: {n}", ("entries",), _write("entries/e.json", c)) for n, c in contents.items()]
 
 
+def config_values() -> list[Value]:
+    pairs = zip("abcdefgh", "bcdefghi", strict=True)
+    laughs = "a: &a [x, x]\n" + "".join(f"{c}: &{c} [*{p}, *{p}]\n" for p, c in pairs)
+    contents = {
+        "binary noise": bytes(range(256)) * 4, "empty": b"", "a list": b"- 1\n- 2\n",
+        "nested deep": ("a: " + "[" * 30_000 + "]" * 30_000).encode(), "1 MB": b"a: " + b"x" * 2**20,
+        "an alias bomb": laughs.encode(), "a python tag": b"fx: !!python/object/apply:os.system [ls]\n",
+        "an unknown key": b"num_obs: 10\n", "a derived key": b"z_range: 0.45\n",
+        "rotation 1e400": b"rotation: 1e400\n", "num_pos 10^9": b"num_pos: 1000000000\n",
+    }
+    return [Value(f"config: {n}", ("c.yaml",), _write("c.yaml", c)) for n, c in contents.items()]
+
+
+def detections_values() -> list[Value]:
+    contents = {
+        "a line of 10^6 fields": "1," * 10**6 + "1\n",
+        "a row of 5 fields": "1,1,2,2,3\n",
+        "a NaN width": "1,1,2,2,nan,3,1\n",
+        "a frame past the poses": "99,1,2,2,3,3,1\n",
+        "bytes that are not text": "1,1,\udcff\n",
+    }
+    return [Value(f"detections: {n}", ("gt.txt",), _write("gt.txt", c.encode("utf-8", "surrogateescape")))
+            for n, c in contents.items()]
+
+
 REPO = HERE.parents[1]
-REBASE = {"checkpoint": (("run", None), ("model", "odn-l")), "poses": (("positions", None),)}
+REBASE = {"checkpoint": (("run", None), ("model", "odn-l")), "poses": (("positions", None),),
+          "config": (("params", None), ("box_preset", "odmd"))}
 INPUTS: dict[str, Callable[[], list[Value]]] = {
     "store": store_values, "predictions": predictions_values, "positions": positions_values,
     "pickles": pickles_values, "run": run_values, "poses": poses_values,
     "recording": recording_values, "release": release_values, "entries": entries_values,
-    "synthia": list,
+    "synthia": list, "config": config_values, "detections": detections_values,
 }
 
 
@@ -755,6 +792,9 @@ class Fixtures:
             tmp.rmdir()
         elif name == "positions.csv":
             self.get("rec")
+        elif name == "gt.txt":
+            path.write_text("".join(f"{i + 1},1,{20 - i},{15 - i},{4 + 2 * i},{3 + 2 * i},0.9\n"
+                                    for i in range(6)))
         elif name == "poses.txt":
             path.write_text("".join(f"1 0 0 0 0 1 0 0 0 0 1 {0.2 + 0.02 * i:.3f} 0 0 0 1\n"
                                     for i in range(6)))
@@ -787,6 +827,8 @@ class Fixtures:
             (path / "config.json").write_text(json.dumps({"config": config, "odms_data": "0"}))
             torch.save({"iteration": 1, "model": odn.build(variant("odn-l"), 3, False).state_dict()},
                        path / "best.pt")
+        elif name == "turn.yaml":
+            path.write_text("rotation: 2\n")
         elif name == "photos":
             path.mkdir()
             for i in range(3):

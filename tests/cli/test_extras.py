@@ -102,3 +102,12 @@ except ImportError as e:
     print(type(e).__name__, e.name, file=sys.stderr)""")
     r = without("cv2", "cv2", program=program)
     assert r.stderr.strip() == "ModuleNotFoundError cv2", r.stderr
+
+
+def test_generate_config_without_pyyaml(tmp_path):
+    config = tmp_path / "rotation.yaml"
+    config.write_text("rotation: 2\n")
+    out = tmp_path / "boxes.zarr"
+    r = without("yaml", "generate", "-n", "3", "--boxes", "odmd", "--config", str(config), "-o", str(out))
+    assert_names_extra(r, "yaml", "odms-data generate --config needs yaml")
+    assert not out.exists()

@@ -14,11 +14,12 @@ import torch
 from click.testing import CliRunner
 
 from odms_data.cli import main
-from odms_data.loaders.box_sources import StoreBoxExamples
 from odms_data.loaders.box_transform import BoxTransform
+from odms_data.loaders.sources import StoreExamples
 from odms_data.network.dbox import DBox
 from odms_data.network.run_folder import TrainConfig
 from odms_data.network.training import train
+from odms_data.simulate.generate_box_store import generate_box_store
 from odms_data.simulate.generate_store import generate
 from odms_data.simulate.params import GeneratorParams
 
@@ -97,7 +98,7 @@ def test_a_stopped_run_resumes_with_the_same_batches(tmp_path, val_store):
 
 def _predict_direct(weights: dict, store: Path, normalized: bool = True) -> np.ndarray:
     """Depths of every example of `store` from DBox with `weights`, computed here without predict."""
-    examples = StoreBoxExamples(str(store), BoxTransform(normalized=normalized, relative=normalized))
+    examples = StoreExamples(str(store), BoxTransform(normalized=normalized, relative=normalized))
     b = examples.batch(np.arange(len(examples)))
     net = DBox()
     net.load_state_dict(weights)
@@ -117,6 +118,21 @@ def test_a_weights_file_predicts_a_store(tmp_path, val_store):
     assert r.exit_code == 0, r.output
     got = [float(g["d1"]) for g in rows(preds)]
     assert got == pytest.approx(_predict_direct(weights, val_store).tolist(), rel=1e-6)
+    note = r.stdout.strip().splitlines()[-1]  # the run says how a store of masks was read
+    assert note.startswith("tiny-val: stores of masks, read as boxes") and "its own camera movement" in note
+
+
+def test_predict_says_which_stores_of_masks_dbox_read_as_boxes(tmp_path, val_store):
+    boxes = tmp_path / "boxes.zarr"
+    generate_box_store(str(boxes), 5, "odmd", 1, split="boxes-val")
+    path = tmp_path / "weights.pt"
+    torch.save(DBox().state_dict(), path)
+    for data, want in (([val_store, boxes], ["tiny-val"]), ([boxes], None)):
+        args = ["predict", "--model", "dbox", "--checkpoint", str(path), "-o", str(tmp_path / "p.csv"),
+                "--workers", "0", "--json", "--overwrite"]
+        r = CliRunner().invoke(main, [*args, *(a for d in data for a in ("--data", str(d)))])
+        assert r.exit_code == 0, r.output
+        assert json.loads(r.stdout).get("masks_read_as_boxes") == want
 
 
 def test_the_authors_pretrained_dbox_predicts_a_store(tmp_path, val_store, odmd_pretrained):

@@ -9,7 +9,7 @@ import numpy as np
 from click.testing import CliRunner
 
 from odms_data.cli import main
-from odms_data.loaders.box_sources import GeneratedBoxExamples
+from odms_data.loaders.sources import GeneratedExamples
 from odms_data.simulate.box_examples import BOX_PRESETS
 from odms_data.store.box_rule import example_boxes
 from odms_data.store.reader import open_store
@@ -26,7 +26,7 @@ def _generate(tmp_path, name, count, preset="odmd", seed=5):
 def test_example_k_is_the_generators_k_in_any_store_and_through_the_stream(tmp_path):
     small, _ = _generate(tmp_path, "a", 7)
     big, _ = _generate(tmp_path, "b", 20)
-    stream = GeneratedBoxExamples(BOX_PRESETS["odmd"], seed=5)
+    stream = GeneratedExamples(BOX_PRESETS["odmd"], seed=5)
     with open_store(small) as s, open_store(big) as b:
         assert s.kind == b.kind == "boxes" and s.attrs.generator["preset"] == "odmd"
         assert s.attrs.generator_version == 2  # the counter-based streams

@@ -60,8 +60,9 @@ def write(path: Path, fmt: str, c: dict, *, overwrite: bool = False, workers: bo
                 w.receive_masks(start, sink.write_packed(start, packed[start : start + shard]))
         else:
             w.write_masks(0, pack(c["masks"]))
-        w.write_frames(0, c["z"], c["depth"], stats_of(c["masks"]))
-        w.write_examples(0, c["frame_index"], c["d1"], c["ids"], c["sources"])
+        w.write_rows("frame", 0, {"z": c["z"], "depth": c["depth"], **vars(stats_of(c["masks"]))})
+        w.write_rows("example", 0, {"frame_index": c["frame_index"], "d1": c["d1"], "example_id": c["ids"],
+                                    "source": c["sources"]})
         w.commit(attrs)
 
 

@@ -3,6 +3,8 @@
 import json
 import re
 import shutil
+import threading
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -143,6 +145,40 @@ def test_a_users_own_sparse_array_reads_the_same_after_a_store_is_opened(tmp_pat
         assert len(s.example_ids) == s.n_examples
     after = zarr.open_array(str(tmp_path / "sparse.zarr"))[:]
     assert before.tolist() == after.tolist() == [1, 2, 7, 7, 7, 7, 7, 7]
+
+
+def test_a_build_leaves_the_users_warnings_as_they_were(tmp_path):
+    """The builder's check before its commit reads the store in its partial folder, beside the
+    folder's marker, without zarr ever seeing the marker: the user's warnings filters are the same
+    during and after a build, and a zarr warning that the user's own code raises in another thread
+    meanwhile is shown, not swallowed (nor is any added)."""
+    from zarr.errors import ZarrUserWarning
+
+    from odms_data.outputs import MARKER
+
+    building, emitted = threading.Event(), []
+
+    def users_own_code() -> None:
+        while building.is_set():
+            emitted.append(len(emitted))
+            warnings.warn(f"Object at {MARKER} is not recognized ({len(emitted)})", ZarrUserWarning,
+                          stacklevel=1)
+
+    with warnings.catch_warnings(record=True) as shown:
+        warnings.simplefilter("always")
+        filters = list(warnings.filters)
+        building.set()
+        thread = threading.Thread(target=users_own_code)
+        thread.start()
+        try:
+            for k in range(3):
+                generate(str(tmp_path / f"w{k}.zarr"), 4, PERTURB, k, examples_per_shard=2, workers=1)
+        finally:
+            building.clear()
+            thread.join()
+        assert warnings.filters == filters
+    zarr_warnings = [w for w in shown if issubclass(w.category, ZarrUserWarning)]
+    assert emitted and len(zarr_warnings) == len(emitted)
 
 
 def test_validate_accepts_a_good_store(small_zarr):

@@ -66,9 +66,12 @@ class ZarrBackend(Backend):
         zarr_mode = "a" if mode == "w" and not is_url(path) else mode
         if mode != "w":
             self._check_metadata("")
+        from .zarr_codecs import MarkerBlindStore
+
+        store = str(path) if is_url(path) else MarkerBlindStore(path, read_only=zarr_mode == "r")
         try:
             self.group = zarr.open_group(
-                store=str(path), mode=zarr_mode, zarr_format=3, storage_options=storage_options(path)
+                store=store, mode=zarr_mode, zarr_format=3, storage_options=storage_options(path)
             )
         except OSError:
             if mode == "w":

@@ -5,11 +5,16 @@ is always written whole; zarr would read the chunk as zeros).
 `scoped(array)` is an array of an odms-data store opened for reading, with its codecs replaced by
 these; ZarrBackend applies it to every array it reads. Nothing is registered with zarr: every other
 array in the process reads with zarr's own codecs.
+
+`MarkerBlindStore` is the local store ZarrBackend opens a store's folder through: it lists the
+folder without the marker of a partial one (outputs.MARKER), which zarr would take for a foreign
+object and warn of when the store builder checks a store before its commit.
 """
 
 from __future__ import annotations
 
 import itertools
+from collections.abc import AsyncIterator
 from contextvars import ContextVar
 from dataclasses import dataclass, replace
 from typing import Any
@@ -17,8 +22,10 @@ from typing import Any
 import numpy as np
 import zarr
 from zarr.codecs import ShardingCodec, ZstdCodec
+from zarr.storage import LocalStore
 
 from ...errors import StoreError
+from ...outputs import MARKER
 from .common import zstd_decode
 
 _wanted: ContextVar[frozenset | set] = ContextVar("wanted", default=frozenset())  # chunks a read needs
@@ -82,3 +89,12 @@ def scoped(array: zarr.Array | zarr.Group) -> zarr.Array:
     codecs = tuple(_bounded(c) for c in meta.codecs)
     inner = array.async_array
     return zarr.Array(zarr.AsyncArray(replace(meta, codecs=codecs), inner.store_path, inner.config))
+
+
+class MarkerBlindStore(LocalStore):
+    """zarr's local store, its top folder listed without a partial folder's marker."""
+
+    async def list_dir(self, prefix: str) -> AsyncIterator[str]:
+        async for key in super().list_dir(prefix):
+            if prefix.strip("/") or key != MARKER:
+                yield key
