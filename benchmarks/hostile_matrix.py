@@ -1,6 +1,6 @@
 """The hostile matrix (tests/cli/matrix.py, issue 37 §2) run whole, and the sample CI runs.
 
-Run by hand: `python benchmarks/hostile_matrix.py [--only TEXT] [--sample N]`.
+Run by hand: `python benchmarks/hostile_matrix.py [--only TEXT] [--sample N] [--before OLD.json]`.
 - The matrix: every parameter of every command (click's tree) with every hostile value of its
   kind, each case in its own process forked from one server, judged by matrix.judge.
 - The sample: what tests/cli/test_matrix.py runs (matrix.sample, its fixed seed), timed apart,
@@ -13,6 +13,7 @@ case with what it broke.
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import tempfile
 import time
@@ -46,11 +47,21 @@ def run(cases: list[matrix.MatrixCase], root: Path, verbose: bool) -> tuple[floa
     return time.perf_counter() - t, broken
 
 
+def _beside(rows: list[dict], before: dict) -> list[dict]:
+    """This run's rows by kind with the earlier run's cases and kept (0 where it had no such kind)."""
+    old = {r["kind"]: r for r in before["rows"]}
+    return [{"kind": r["kind"], "cases before": old.get(r["kind"], {}).get("cases", 0),
+             "kept before": old.get(r["kind"], {}).get("kept", 0),
+             **{k: v for k, v in r.items() if k != "kind"}} for r in rows]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", default="", help="run only the cases whose id holds this")
     ap.add_argument("--sample", type=float, default=matrix.SAMPLE, help="share of the cases CI samples")
     ap.add_argument("-v", action="store_true", help="print every broken case as it is found")
+    ap.add_argument("--before", type=Path, help="an earlier run's results JSON: its cases and kept by kind "
+                                                "go beside this run's (before/after)")
     _results.add_options(ap)
     args = ap.parse_args()
     cases = [c for c in matrix.all_cases() if args.only in c.id]
@@ -63,6 +74,8 @@ def main() -> None:
             for k in sorted(total)]
     rows.append({"kind": "all", "cases": len(cases), "kept": sum(kept.values()),
                  "broken": len(cases) - sum(kept.values())})
+    if args.before:
+        rows = _beside(rows, json.loads(args.before.read_text()))
     table = [{"command": c, "parameter": p, "kind": k, "values": n} for c, p, k, n in matrix.table()]
     sampled = len(matrix.sample(cases, args.sample))
     extra = {"runs": len(cases), "full_seconds": full_s, "sampled_runs": sampled,
@@ -73,7 +86,7 @@ def main() -> None:
                   rows, extra)
     print(f"{len(cases)} runs in {full_s:.0f} s; sample of {extra['sampled_runs']} in {sampled_s:.0f} s")
     for row in rows:
-        print(f"{row['kind']:12s} {row['cases']:5d} {row['kept']:5d} {row['broken']:5d}")
+        print(" ".join(f"{v:>12}" for v in row.values()))
 
 
 if __name__ == "__main__":

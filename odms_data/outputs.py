@@ -13,6 +13,9 @@
   never deleted;
 - a sibling whose name would pass NAME_MAX is shortened, with a hash of the output's name;
 - a failed write (a full disk, say) removes the sibling and is one line naming the path;
+- an output that has a reader is checked by it (`check`) before it is renamed into place: what its
+  reader refuses replaces nothing (a `WriteError`);
+- a path that names no file or folder ('', '.', '..', a trailing '/.') is refused;
 - nothing is written inside a Zarr store (a folder holding zarr.json).
 """
 
@@ -69,9 +72,15 @@ def write_error(path: str | os.PathLike, e: OSError) -> WriteError:
     return WriteError(f"{path}: cannot be written: {why}; nothing was left behind")
 
 
+Check = Callable[[Path], object]  # a reader's checks of a finished output: OdmsError when it refuses it
+
+
 def sibling(path: str | os.PathLike, suffix: str) -> Path:
-    """`<path><suffix>`, its name shortened (keeping a hash of the whole) where it would pass NAME_MAX."""
+    """`<path><suffix>`, its name shortened (keeping a hash of the whole) where it would pass NAME_MAX;
+    InputError when `path` names no file or folder (its siblings would have no name)."""
     p = Path(str(path).rstrip("/") or "/")
+    if p.name in ("", ".", ".."):
+        raise InputError(f"{os.fspath(path)!r}: names no file or folder for the output; give it a name")
     name, tail = os.fsencode(p.name), os.fsencode(suffix)
     if len(name) + len(tail) <= NAME_MAX:
         return p.with_name(p.name + suffix)
@@ -284,9 +293,16 @@ class Partial:
         _make_sibling_folder(self.folder, self.target, self.output_type)
         return self.path
 
-    def commit(self) -> None:
-        """Flush the finished output and rename it onto the target, replacing what is there. A stop
-        waits for the end: between the renames of a replaced folder, no output is at the path."""
+    def commit(self, check: Check | None = None) -> None:
+        """Flush the finished output and rename it onto the target, replacing what is there, once
+        `check` (its reader's checks) accepts it. A stop waits for the end: between the renames of a
+        replaced folder, no output is at the path."""
+        if check is not None:
+            try:
+                check(self.path)
+            except OdmsError as e:
+                raise WriteError(f"{self.target}: what was written does not read back ({e}); "
+                                            "nothing was replaced") from None
         with uninterrupted():
             fsync_tree(self.path)
             if self.is_folder:  # only now: a stale partial without the marker is refused, not removed
@@ -327,8 +343,9 @@ def _fsync(path: Path, flags: int) -> None:
 
 
 def sync_parent(path: str | os.PathLike) -> None:
-    """Flush the folder holding `path`, so that a rename into it is on the disk."""
-    _fsync(Path(path).absolute().parent, os.O_RDONLY | os.O_DIRECTORY)
+    """Flush the folder holding `path`, so that a rename into it is on the disk; the folder may be
+    a link to one (a folder of outputs the user linked elsewhere), which is followed."""
+    _fsync(Path(os.path.realpath(Path(path).absolute().parent)), os.O_RDONLY | os.O_DIRECTORY)
 
 
 def _move_into_place(new: Path, target: Path, output_type: OutputType) -> None:
@@ -362,26 +379,27 @@ def _inside(filename: object, folder: Path) -> bool:
 
 
 @contextmanager
-def atomic_file(path: str | os.PathLike, *, overwrite: bool = False, option: str = "") -> Iterator[Path]:
-    """Yields the temporary path to write `path` at; on leaving normally it is flushed and renamed
-    onto `path`; on an error it is removed and `path` is as it was."""
+def atomic_file(path: str | os.PathLike, *, overwrite: bool = False, option: str = "",
+                check: Check | None = None) -> Iterator[Path]:
+    """Yields the temporary path to write `path` at; on leaving normally it is checked (`check`),
+    flushed and renamed onto `path`; on an error it is removed and `path` is as it was."""
     with output_lock(path):
         check_replaceable(path, overwrite, FILE, option)
-        with replaced_via_partial(path) as partial:
+        with replaced_via_partial(path, check=check) as partial:
             yield partial
 
 
 @contextmanager
 def replaced_via_partial(path: str | os.PathLike, output_type: OutputType = FILE,
-                         folder: bool = False) -> Iterator[Path]:
+                         folder: bool = False, check: Check | None = None) -> Iterator[Path]:
     """`atomic_file` without the lock and the existence check, for a file that its owner
     replaces as it goes (a training run's checkpoints, under the run's lock): yields the path to
-    write, flushed and renamed onto `path` when the block ends normally, removed (and a full
-    disk one line naming `path`) when it does not."""
+    write, checked (`check`), flushed and renamed onto `path` when the block ends normally, removed
+    (and a full disk one line naming `path`) when it does not."""
     partial = Partial(path, folder=folder, output_type=output_type)
     try:
         yield partial.make()
-        partial.commit()
+        partial.commit(check)
     except BaseException as e:
         partial.discard()
         failed = _failed(e, path, partial)
@@ -403,10 +421,11 @@ def write_text(path: str | os.PathLike, text: str, *, overwrite: bool = False, o
 
 @contextmanager
 def atomic_folder(path: str | os.PathLike, output_type: OutputType, *,
-                  overwrite: bool = False) -> Iterator[Path]:
-    """`atomic_file` for an output that is a folder: yields the empty folder to write, renamed
-    onto `path` (replacing what was there, if `output_type` allows it) when the block ends normally."""
+                  overwrite: bool = False, check: Check | None = None) -> Iterator[Path]:
+    """`atomic_file` for an output that is a folder: yields the empty folder to write, checked
+    (`check`) and renamed onto `path` (replacing what was there, if `output_type` allows it) when
+    the block ends normally."""
     with output_lock(path, output_type):
         check_replaceable(path, overwrite, output_type)
-        with replaced_via_partial(path, output_type, folder=True) as partial:
+        with replaced_via_partial(path, output_type, folder=True, check=check) as partial:
             yield partial

@@ -36,7 +36,6 @@ import math
 import os
 import pickle
 import pickletools
-import stat
 import zipfile
 from pathlib import Path
 from typing import IO, Any
@@ -44,6 +43,7 @@ from typing import IO, Any
 import numpy as np
 
 from .errors import InputError
+from .inputs import open_input, read_input
 
 MAX_FILE_BYTES = 256 * 2**20  # ODMD's largest set is 2.6 MB
 MAX_ELEMENTS = 32 * 2**20  # per array
@@ -288,24 +288,6 @@ def _resolved(obj: Any, depth: int = 0) -> Any:
     raise _Refused(f"it holds a {type(obj).__name__}, which an ODMD set does not")
 
 
-def _read(p: Path, max_bytes: int, what: str) -> bytes:
-    """The bytes of the regular file `p`, read no further than `max_bytes` + 1 (a FIFO is not waited on)."""
-    try:
-        fd = os.open(p, os.O_RDONLY | os.O_NONBLOCK)
-    except OSError as e:
-        raise InputError(f"{p}: cannot read ({e.strerror or e})") from None
-    with os.fdopen(fd, "rb") as f:
-        if not stat.S_ISREG(os.fstat(fd).st_mode):
-            raise InputError(f"{p}: not a regular file, not {what}")
-        try:
-            data = f.read(max_bytes + 1)
-        except OSError as e:
-            raise InputError(f"{p}: cannot read ({e.strerror or e})") from None
-    if len(data) > max_bytes:
-        raise InputError(f"{p}: larger than {max_bytes // 2**20} MiB, not {what}")
-    return data
-
-
 def _bounded_load(stream: IO[bytes], unpickler: pickle._Unpickler, p: Path, what: str) -> Any:
     """The value of the next pickle of `stream`, read by `unpickler` once `_bound_structure` has
     walked it; the stream is left after it."""
@@ -324,7 +306,7 @@ def _bounded_load(stream: IO[bytes], unpickler: pickle._Unpickler, p: Path, what
 def load_pickle(path: str | Path) -> Any:
     """The content of the pickle at `path`: dicts, lists, tuples, numbers, strings and arrays."""
     p = Path(path)
-    stream = io.BytesIO(_read(p, MAX_FILE_BYTES, "an ODMD set"))
+    stream = io.BytesIO(read_input(p, "an ODMD set", MAX_FILE_BYTES))
     obj = _bounded_load(stream, _Unpickler(stream), p, "ODMD pickle")
     try:
         return _resolved(obj)
@@ -455,7 +437,7 @@ def load_checkpoint(path: str | os.PathLike[str]) -> Any:
     """The content of the PyTorch checkpoint at `path` (dicts, numbers, strings and dense tensors),
     on the CPU, once its size, its records and its pickles are checked (the module says how)."""
     p = Path(path)
-    data = _read(p, MAX_CHECKPOINT_BYTES, "a checkpoint")
+    data = read_input(p, "a checkpoint", MAX_CHECKPOINT_BYTES)
     if data.startswith(b"PK\x03\x04"):
         _check_zip(data, p)
     else:
@@ -474,7 +456,7 @@ def load_npy(path: str | os.PathLike[str], row_shape: tuple[int, ...], max_rows:
     """A `.npy` file of floats shaped (n, *row_shape), 1 <= n <= max_rows, as float64: its header
     is checked and its length matched before the array is read, and it is never unpickled."""
     p = Path(path)
-    with p.open("rb") as f:
+    with open_input(p, what) as f:
         try:
             version = np.lib.format.read_magic(f)
             fmt = np.lib.format

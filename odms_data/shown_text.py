@@ -29,7 +29,8 @@ from typing import Any
 from urllib.parse import quote, urlsplit
 
 _UNSAFE = ("Cc", "Cf", "Cs", "Co", "Cn", "Zl", "Zp")  # controls, format (bidi), unassigned, line breaks
-_MARKDOWN = re.compile(r"([\\|\[\]<>]|&(?=#?\w+;))")  # what makes a cell end, a link, HTML or an entity
+# what makes a cell end, a link, HTML or an entity (a `(` after `]`: the link's target, escaped too)
+_MARKDOWN = re.compile(r"([\\|\[\]<>]|&(?=#?\w+;)|(?<=\])\()")
 
 
 class Markdown(str):
@@ -101,10 +102,14 @@ def markdown_join(separator: str, parts: Iterable[object]) -> Markdown:
     return Markdown(separator.join(p if isinstance(p, Markdown) else markdown_text(p) for p in parts))
 
 
+_HEADER_MARKUP = {c: f"\\u{ord(c):04x}" for c in "<>&[]|"}
+
+
 def _quoted(value: object) -> str:
-    """A YAML double-quoted scalar (JSON's), with `<`, `>` and `&` as \\u escapes too: a reader
-    that shows the header as HTML without escaping it meets no markup."""
-    return json.dumps(value).replace("<", "\\u003c").replace(">", "\\u003e").replace("&", "\\u0026")
+    """A YAML double-quoted scalar (JSON's), with `<`, `>`, `&`, `[`, `]` and `|` as \\u escapes too: a
+    reader that shows the header as HTML or Markdown without parsing it meets no markup (no tag, link
+    or table row)."""
+    return "".join(_HEADER_MARKUP.get(c, c) for c in json.dumps(value))
 
 
 def _yaml(value: object, indent: int) -> str:

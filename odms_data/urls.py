@@ -7,13 +7,16 @@ and written at `file://` and at the object stores of SCHEMES (s3, gs, az), each 
 package; one not installed is one line naming the extra that installs it. `memory://` lives in one
 process: the library reads and writes it (its tests, an in-process Dask cluster), the command line
 refuses it (`refuse_transient`), since a store written there vanishes when the command ends. Any
-other scheme (http, ssh, ...) is refused in one line.
+other scheme (http, ssh, ...) is refused in one line. An object store its client cannot reach (no
+credentials, no connection) is one line naming the URL (`reaching`).
 """
 
 from __future__ import annotations
 
 import os
 import re
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 from .errors import InputError
@@ -83,3 +86,28 @@ def url_filesystem(url: str) -> tuple[Any, str]:
         raise InputError(f"{url}: not a store URL odms-data can open ({e})") from None
     fs.invalidate_cache(root)
     return fs, root
+
+
+# the packages whose exceptions say an object store's client could not reach it: credentials it
+# could not find or that were refused, an endpoint it could not connect to
+_CLIENTS = ("botocore", "aiobotocore", "aiohttp", "google.auth", "google.api_core", "azure.core",
+            "azure.identity")
+
+
+def _from_client(e: BaseException) -> bool:
+    modules = {c.__module__ for c in type(e).__mro__}
+    return any(n == m or n.startswith(m + ".") for n in modules for m in _CLIENTS)
+
+
+@contextmanager
+def reaching(url: str) -> Iterator[None]:
+    """Where a store at `url` is first reached: its client's failure to reach it (no credentials, no
+    connection) becomes one line naming the URL (InputError), not an internal error."""
+    try:
+        yield
+    except Exception as e:
+        if not _from_client(e):
+            raise
+        why = " ".join(str(e).split())[:200] or type(e).__name__
+        raise InputError(f"{url}: the object store cannot be reached ({why}); check its credentials and "
+                         "endpoint (docs/DISTRIBUTED.md)") from None

@@ -17,7 +17,7 @@ PACKAGE = Path(odms_data.__file__).resolve().parent
 def test_a_field_that_is_not_markdown_is_escaped():
     hostile = "x | y <script>alert(1)</script> [a](javascript:b)\n| 1 |"
     out = markdown("| {name} | {link} |", name=hostile, link=markdown_link("n", "https://e.org"))
-    assert out == ("| x \\| y &lt;script&gt;alert(1)&lt;/script&gt; \\[a\\](javascript:b) \\| 1 \\| "
+    assert out == ("| x \\| y &lt;script&gt;alert(1)&lt;/script&gt; \\[a\\]\\(javascript:b) \\| 1 \\| "
                    "| [n](https://e.org) |")
     assert isinstance(out, Markdown) and markdown("{n:,}", n=12345) == "12,345"
 
@@ -45,6 +45,10 @@ def test_a_yaml_header_value_cannot_end_the_header():
     out = yaml_header({"pretty_name": "<b>a\n---\nlicense: mit", "tags": ["x"]})
     assert out == '---\npretty_name: "\\u003cb\\u003ea\\n---\\nlicense: mit"\ntags:\n  - "x"\n---\n'
     assert yaml.safe_load(out.split("---\n")[1]) == {"pretty_name": "<b>a\n---\nlicense: mit", "tags": ["x"]}
+    link_and_row = "[x](javascript:y) | b\n|---|---|"
+    out = yaml_header({"pretty_name": link_and_row})  # no markup for a reader that shows it raw
+    assert "](javascript:" not in out and "|---|" not in out
+    assert yaml.safe_load(out.split("---\n")[1]) == {"pretty_name": link_and_row}
 
 
 def _modules():

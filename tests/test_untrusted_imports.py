@@ -278,7 +278,7 @@ def test_for_terminal_escapes_controls_and_keeps_text():
 def test_markdown_cannot_add_rows_html_or_script_links():
     assert markdown_text("x | y\n| 1 |") == "x \\| y \\| 1 \\|"
     assert markdown_text("<img src=x onerror=alert(1)>") == "&lt;img src=x onerror=alert(1)&gt;"
-    assert markdown_link("n](javascript:alert(1))", "javascript:alert(1)") == "n\\](javascript:alert(1))"
+    assert markdown_link("n](javascript:alert(1))", "javascript:alert(1)") == "n\\]\\(javascript:alert(1))"
     assert markdown_link("ODN", "https://e.org/a (b)|c") == "[ODN](https://e.org/a%20%28b%29%7Cc)"
 
 
@@ -295,7 +295,7 @@ def test_a_hostile_leaderboard_entry_stays_in_its_row():
     row = next(line for line in board.splitlines() if line.startswith("| 1 |"))
     assert row.count(" | ") == board.splitlines()[2].count(" | ")  # the header's cells, no more
     assert "<script>" not in board and "<b>" not in board
-    assert not re.search(r"(?<!\\)\]\(javascript:", board) and "\\](javascript:b)" in board
+    assert not re.search(r"(?<!\\)\]\(javascript:", board) and "\\]\\(javascript:b)" in board
 
 
 def test_leaderboard_on_a_latin1_terminal(tmp_path):

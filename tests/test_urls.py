@@ -83,3 +83,42 @@ def test_no_module_but_urls_opens_a_url_or_decides_a_scheme():
         found += [f"{name}: {c.value!r}" for c in tested
                   if isinstance(c, ast.Constant) and isinstance(c.value, str) and "://" in c.value]
     assert found == []
+
+
+NO_CREDENTIALS = {"AWS_ACCESS_KEY_ID": "", "AWS_SECRET_ACCESS_KEY": "",
+                  "AWS_SHARED_CREDENTIALS_FILE": "/nonexistent", "AWS_CONFIG_FILE": "/nonexistent",
+                  "AWS_EC2_METADATA_DISABLED": "true"}
+
+
+def test_an_object_store_without_credentials_is_one_line_naming_the_url(tmp_path, store, monkeypatch):
+    """s3:// without credentials exited 3 (botocore's NoCredentialsError) in every command."""
+    for k, v in NO_CREDENTIALS.items():
+        monkeypatch.setenv(k, v) if v else monkeypatch.delenv(k, raising=False)
+    one_line(odms(tmp_path, "info", "s3://bucket/x.zarr"), "s3://bucket/x.zarr", "cannot be reached",
+             "credentials")
+    one_line(odms(tmp_path, "generate", "-n", "2", "-o", "s3://bucket/g.zarr"), "s3://bucket/g.zarr",
+             "cannot be reached")
+    one_line(odms(tmp_path, "convert", str(store), "s3://bucket/t.h5"), "s3://bucket/t.h5",
+             "cannot be reached")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_only_a_place_is_refused_as_a_memory_store_not_a_text(tmp_path, store):
+    """The refusal of memory:// took every argument: a --name holding the text was refused too."""
+    import shutil
+
+    shutil.copytree(store, tmp_path / "tiny-val.zarr")
+    (tmp_path / "p.csv").write_text("split,example_id,d1\n" + "".join(
+        f"tiny-val,tiny-val/{i:06d},0.5\n" for i in range(4)))
+    r = odms(tmp_path, "score", "p.csv", "--data", "tiny-val.zarr", "--name", "memory://x",
+             "--entry", "e.json")
+    assert "lives only in the process" not in r.stderr and "no official split" in r.stderr, r.stderr
+    one_line(odms(tmp_path, "score", "p.csv", "--data=memory://x"), "memory://x", "vanishes")
+    one_line(odms(tmp_path, "leaderboard", "verify", "--dir", "memory://x"), "memory://x", "vanishes")
+
+
+def test_a_training_run_named_as_a_url_leaves_no_folder(tmp_path, store):
+    """train -o s3://bucket/x made ./s3:/bucket/x before it refused the URL."""
+    one_line(odms(tmp_path, "train", "-o", "s3://bucket/x", "--val", str(store), "--iterations", "1"),
+             "s3://bucket/x", "a URL")
+    assert list(tmp_path.iterdir()) == []

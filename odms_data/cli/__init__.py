@@ -86,6 +86,37 @@ def _usage_line(e: click.ClickException) -> str:
     return f"odms-data: error: {one_line(e.format_message()).rstrip('.')}{where}"
 
 
+def _is_location(param: click.Parameter) -> bool:
+    """Whether `param` names a place (a path, a store, a URL or an address), not a text."""
+    return isinstance(param.type, click.Path) or param.metavar in ("ADDRESS", "URL")
+
+
+def _locations(group: click.Group, ctx: click.Context, args: list[str]) -> list[str]:
+    """The values of `args` (the whole command line after `odms-data`) that may name a place: those
+    of path, URL and address options and every positional one, not those of text, number or choice
+    options (a --name holding '://' is a name)."""
+    options: dict[str, click.Option] = {}
+    command: click.Command = group
+    options.update({o: p for p in group.params if isinstance(p, click.Option) for o in p.opts})
+    out, rest = [], iter(args)
+    for arg in rest:
+        sub = command.get_command(ctx, arg) if isinstance(command, click.Group) else None
+        if sub is not None:  # a subcommand's name: its options from here on
+            command = sub
+            options.update({o: p for p in sub.params if isinstance(p, click.Option) for o in p.opts})
+            continue
+        flag, eq, value = arg.partition("=")
+        option = options.get(flag if arg.startswith("--") else arg)
+        if option is None:
+            out.append(value if eq and arg.startswith("--") else arg)
+        elif eq and arg.startswith("--"):
+            out += [value] if _is_location(option) else []
+        elif not (option.is_flag or option.count):
+            values = [next(rest, "") for _ in range(max(option.nargs, 1))]
+            out += values if _is_location(option) else []
+    return out
+
+
 class OdmsGroup(click.Group):
     def list_commands(self, ctx: click.Context) -> list[str]:
         return sorted(COMMANDS)
@@ -130,8 +161,8 @@ class OdmsGroup(click.Group):
 
     def invoke(self, ctx: click.Context):
         try:
-            for value in ctx.meta["arguments"]:
-                refuse_transient(value.split("=", 1)[-1] if value.startswith("--") else value)
+            for value in _locations(self, ctx, ctx.meta["arguments"]):
+                refuse_transient(value)
             return super().invoke(ctx)
         except (click.exceptions.Exit, click.ClickException, click.Abort):
             raise

@@ -81,7 +81,7 @@ def score(predictions, data, as_json, markdown, allow_partial, with_metrics, by,
         check_replaceable(entry, overwrite, option="entry", suffixes=(".json",))
     with Bars("verifying {}") as bars:  # the digests an entry records, checked first
         preds, report = Evaluation(data).score(predictions, allow_partial=allow_partial, verify=bool(entry),
-                                               progress=bars)
+                                               progress=bars, n_obs=n_obs)
     _show_score(report, by, "json" if as_json else "markdown" if markdown else "text", with_metrics, ci)
     if plot:
         from ..evaluation.error_plots import plot_errors

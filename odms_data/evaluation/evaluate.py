@@ -10,13 +10,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import InputError
-from ..protocol import split_order
+from ..protocol import observation_indices, split_order
 from ..store.build import Progress
 from ..store.reader import Store, open_store
 from .baseline_result import BaselineCounts, BaselineResult
 from .compare import Comparison, compare
 from .ground_truth import (
     Location,
+    SplitTruth,
     data_locations,
     find_stores,
     load_truth,
@@ -58,16 +59,20 @@ class Evaluation:
 
     def score(
         self, predictions: str | Path, *, allow_partial: bool = False, verify: bool = False,
-        progress: Progress | None = None, intervals: bool = True,
+        progress: Progress | None = None, intervals: bool = True, n_obs: int | None = None,
     ) -> tuple[Predictions, ScoreReport]:
         """The predictions file as read, and its score against the stores of the data folders.
         With `verify` (what a leaderboard entry needs) a complete score's stores are checked
         against their digests and manifests first (verify_truth), with `progress(split, frames
-        done, frames total)`. `intervals`: each mean's and All's 95 % interval (scoring.score)."""
+        done, frames total)`. `intervals`: each mean's and All's 95 % interval (scoring.score).
+        `n_obs`, the observations the predictions used, is refused beyond a scored example's own
+        (protocol.observation_indices, as every command refuses it)."""
         stores = find_stores(data_locations(self.data))
         truths = {split: load_truth(path) for split, path in stores.items()}
         preds = read_predictions(predictions, max_rows=sum(len(t.example_ids) for t in truths.values()))
         report = score(preds, truths, allow_partial=allow_partial, intervals=intervals)
+        if n_obs is not None:
+            _check_observations([truths[split] for split in sorted(report.digests)], n_obs)
         if verify and not report.partial:
             for split in sorted(report.digests):
                 verify_truth(truths[split], progress)
@@ -98,3 +103,12 @@ class Evaluation:
         write_predictions(output, rows, overwrite=overwrite)
         return len(rows), counts
 
+
+def _check_observations(truths: Sequence[SplitTruth], n_obs: int) -> None:
+    """InputError naming the store when an example of `truths` has fewer than `n_obs` observations,
+    as every command refuses it (protocol.observation_indices)."""
+    for t in truths:
+        try:
+            observation_indices(int(t.n_obs.min()) if len(t.n_obs) else n_obs, n_obs)
+        except InputError as e:
+            raise InputError(f"{t.path}: {e}") from None

@@ -166,6 +166,9 @@ class LeaderboardEntry:
         return cls(**d)
 
 
+MAX_ENTRY_BYTES = 2**20  # an entry file: a few KB of figures and names
+
+
 def shipped_folder() -> Path:
     """The leaderboard/ shipped with odms-data."""
     return resource_dir("leaderboard")
@@ -179,14 +182,21 @@ def _folder_entries(folder: Path) -> list[tuple[Path, LeaderboardEntry]]:
         raise InputError(f"{folder}: no such folder of leaderboard entries{hint}")
     if not any(folder.glob("*.json")):
         raise InputError(f"{folder}: holds no leaderboard entries (*.json files)")
-    return [(path, LeaderboardEntry.from_json(safe_json.load_file(path), str(path)))
-            for path in sorted(folder.glob("*.json"))]
+    return [(p, LeaderboardEntry.from_json(safe_json.load_file(p, max_bytes=MAX_ENTRY_BYTES), str(p)))
+            for p in sorted(folder.glob("*.json"))]
+
+
+def _resolved(folder: Path | str) -> Path:
+    try:
+        return Path(folder).resolve()
+    except (OSError, RuntimeError) as e:  # a link loop
+        raise InputError(f"{folder}: cannot be resolved as a folder of leaderboard entries ({e})") from None
 
 
 def entry_files(*folders: Path | str) -> list[tuple[Path, LeaderboardEntry]]:
     """(file, entry) for every entry of `folders` (default: the shipped leaderboard/; a folder
     named twice is read once), checked; names must be unique across them all."""
-    unique = dict.fromkeys(Path(f).resolve() for f in folders or [shipped_folder()])
+    unique = dict.fromkeys(_resolved(f) for f in folders or [shipped_folder()])
     out: list[tuple[Path, LeaderboardEntry]] = []
     seen: dict[str, Path] = {}
     for path, entry in (pair for folder in unique for pair in _folder_entries(folder)):

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import OdmsError
+from ..inputs import open_input
 from .evaluate import Evaluation
 from .leaderboard import ALL_KEYS, LeaderboardEntry, entry_from_report
 
@@ -60,7 +61,7 @@ def verify_entry(entry_file: Path, entry: LeaderboardEntry, data: Sequence[str],
     """Re-score `entry` (read from `entry_file`) from the predictions it ships."""
     predictions = predictions_of(entry_file)
     assert predictions is not None and entry.scored is not None
-    with open(predictions, "rb") as f:
+    with open_input(predictions, "a predictions file") as f:
         sha = hashlib.file_digest(f, "sha256").hexdigest()
     if sha != entry.scored["predictions_sha256"]:
         return Verdict(entry.name, predictions, [f"{predictions.name} is not the file the entry was scored "

@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError
+from ..inputs import open_input
 from ..outputs import atomic_file
 
 COLUMNS = ("split", "example_id", "d1")
@@ -138,15 +139,7 @@ class _Hashed(io.RawIOBase):
 
 
 def _open(path: str) -> tuple[io.BufferedReader, _Hashed]:
-    try:
-        raw = open(path, "rb", buffering=0)
-    except FileNotFoundError:
-        raise InputError(f"{path}: no such predictions file") from None
-    except IsADirectoryError:
-        raise InputError(f"{path}: is a folder, not a predictions file") from None
-    except OSError as e:
-        raise InputError(f"{path}: cannot be read ({e.strerror or e})") from None
-    hashed = _Hashed(raw)
+    hashed = _Hashed(open_input(path, "a predictions file"))
     return io.BufferedReader(hashed), hashed
 
 

@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import InputError
+from ..inputs import open_input
 from ..paths import inside
 from ..protocol import WHOLE, protocol_windows, window_id
 from ..store.format import store_path
@@ -64,9 +65,8 @@ def _read_table(positions: Path) -> pd.DataFrame:
     import pandas as pd
 
     try:
-        table = pd.read_csv(positions, dtype=str, keep_default_na=False, skipinitialspace=True)
-    except FileNotFoundError:
-        raise InputError(f"{positions}: no such file") from None
+        with open_input(positions, "a positions CSV") as f:
+            table = pd.read_csv(f, dtype=str, keep_default_na=False, skipinitialspace=True)
     except pd.errors.EmptyDataError:
         raise InputError(f"{positions}: is empty (expected a header line 'frame,z')") from None
     except (pd.errors.ParserError, UnicodeDecodeError, OSError) as e:

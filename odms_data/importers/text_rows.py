@@ -4,11 +4,13 @@ row (pose files, MOTChallenge and YOLO files, positions CSVs)."""
 
 from __future__ import annotations
 
+import io
 import math
 from collections.abc import Iterator
 from pathlib import Path
 
 from ..errors import InputError
+from ..inputs import open_input
 
 
 def text_rows(path: Path, max_chars: int, max_lines: int, row: str = "a row") -> Iterator[tuple[int, str]]:
@@ -16,7 +18,7 @@ def text_rows(path: Path, max_chars: int, max_lines: int, row: str = "a row") ->
     InputError for a line longer than `max_chars` (`row` names what a line holds) or more than
     `max_lines` lines."""
     try:
-        with path.open(encoding="utf-8") as f:
+        with io.TextIOWrapper(open_input(path, "a text file"), encoding="utf-8") as f:
             for i in range(1, max_lines + 2):
                 line = f.readline(max_chars + 1)
                 if not line:

@@ -72,7 +72,7 @@ class TrainConfig:
         ] + [
             f"{name} must be at most {most}, got {getattr(self, name)}"
             for name, most in (("n_obs", MAX_OBS), ("batch_size", MAX_BATCH), ("iterations", MAX_ITERATIONS),
-                               ("seed", MAX_SEED))
+                               ("val_every", MAX_ITERATIONS), ("seed", MAX_SEED))
             if getattr(self, name) > most
         ]
         if self.preset not in v.recipe.presets:
@@ -80,8 +80,8 @@ class TrainConfig:
                             f"{', '.join(v.recipe.presets)})")
         if self.radial and not v.recipe.radial:
             problems.append(f"{self.model} takes no radial image")
-        if not self.lr > 0:
-            problems.append(f"lr must be positive, got {self.lr}")
+        if not 0 < self.lr < math.inf:
+            problems.append(f"lr must be a positive finite number, got {self.lr}")
         problems += [f"seed {self.seed} generates split {name} (splits/{name}.json): a stream of it "
                      "would train on evaluation examples; choose another seed"
                      for name in _splits_of_seed(self.seed)]
@@ -189,8 +189,7 @@ class RunFolder:
             d = safe_json.load_file(path)
         except OdmsError:
             return False
-        return (isinstance(d, dict) and isinstance(d.get("odms_data"), str)
-                and isinstance(d.get("config"), dict))
+        return _holds_run(d)
 
     def config(self) -> TrainConfig:
         if not self.is_run():
@@ -225,7 +224,7 @@ class RunFolder:
         for path in self.path.glob(best_of("*")):
             path.unlink()
         text = json.dumps({"config": config.to_json(), "odms_data": __version__}, indent=2) + "\n"
-        with replaced_via_partial(self.file(CONFIG)) as partial:
+        with replaced_via_partial(self.file(CONFIG), check=lambda p: _reads_as(p, config)) as partial:
             partial.write_text(text, encoding="utf-8")
         return False
 
@@ -243,6 +242,21 @@ class RunFolder:
         fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_NOFOLLOW)  # the file just written
         with open(fd, "a", newline="", encoding="utf-8") as f:
             yield _appender(csv.writer(f, lineterminator="\n"), f)
+
+
+def _holds_run(d: Any) -> bool:
+    """Whether the JSON value of a config.json is a run's: it names odms-data and holds a configuration."""
+    return isinstance(d, dict) and isinstance(d.get("odms_data"), str) and isinstance(d.get("config"), dict)
+
+
+def _reads_as(path: Path, config: TrainConfig) -> None:
+    """The commit check of a run's config.json (outputs.Check): its reader's checks, and the config it
+    reads back is `config`."""
+    name, d = path.name, safe_json.load_file(path)
+    if not _holds_run(d):
+        raise InputError(f"{name} holds no run configuration")
+    if TrainConfig.from_json(d["config"]) != config:
+        raise InputError(f"{name} reads back as another configuration")
 
 
 def _appender(out: Any, f: IO[str]) -> AddRow:

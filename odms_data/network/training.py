@@ -15,6 +15,8 @@ last.pt sees exactly the batches it would have seen.
 from __future__ import annotations
 
 import io
+import os
+import shutil
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -27,6 +29,7 @@ from torch.utils.data import DataLoader
 from ..errors import InputError
 from ..evaluation.metrics import percent_errors
 from ..outputs import output_lock, replaced_via_partial
+from ..urls import refuse_url
 from .checkpoint import Checkpoint
 from .models import Batch, Model, model_of
 from .run_folder import BEST, LAST, RUN_OUTPUT, TRAIN, VAL, AddRow, RunFolder, TrainConfig, best_of
@@ -121,7 +124,7 @@ def _save(path: Path, checkpoint: Checkpoint) -> None:
     outputs.py makes one line) and not torch's RuntimeError."""
     buffer = io.BytesIO()
     torch.save(checkpoint.to_json(), buffer)
-    with replaced_via_partial(path) as partial, open(partial, "xb") as f:
+    with replaced_via_partial(path, check=read_checkpoint) as partial, open(partial, "xb") as f:
         f.write(buffer.getbuffer())
 
 
@@ -135,9 +138,17 @@ def train(
     report: Callable[[Status], None] = lambda s: None,
 ) -> Status:
     """Train (or resume) the run at `path`, under its lock; `workers` processes make the stream's
-    batches. Returns the final status; a run that is already complete returns at once."""
+    batches. Returns the final status; a run that is already complete returns at once. A run that
+    fails (an error, not an interruption, which a rerun resumes) leaves no folder it made."""
+    refuse_url(path, "a training run")
     with output_lock(path, RUN_OUTPUT):
-        return _train(path, config, workers, device, overwrite, report)
+        made = not os.path.lexists(path)
+        try:
+            return _train(path, config, workers, device, overwrite, report)
+        except Exception:
+            if made and os.path.isdir(path) and not os.path.islink(path):
+                shutil.rmtree(path, ignore_errors=True)
+            raise
 
 
 def _train(path: str | Path, config: TrainConfig, workers: int, device: str | None, overwrite: bool,

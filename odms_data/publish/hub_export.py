@@ -19,6 +19,8 @@ from its recorded digest is refused, since the card publishes the digests. Needs
 from __future__ import annotations
 
 import hashlib
+import json
+import re
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -148,6 +150,55 @@ def _not_an_export(path: Path) -> str | None:
 EXPORT = OutputType("export", _not_an_export)
 
 
+_HEADER_LINE = re.compile(r" *(?:[a-z_]+:(?: (?P<value>.+))?|- (?P<item>.+))")
+
+
+def _header_line(line: str) -> bool:
+    """Whether `line` is one of a card header's: a key, a key and its value, a list item, each
+    value a quoted scalar (JSON's) or a nested key."""
+    m = _HEADER_LINE.fullmatch(line)
+    if m is None:
+        return False
+    if m["item"] and _HEADER_LINE.fullmatch(m["item"]):  # a list of mappings: `- key: value`
+        return _header_line(m["item"])
+    value = m["value"] or m["item"]
+    if value is None:
+        return True
+    try:
+        json.loads(value)
+    except ValueError:
+        return False
+    return True
+
+
+def check_export(folder: Path, exported: Sequence[SplitExport]) -> None:
+    """An export's readers' checks, before it replaces anything (outputs.Check): the card's YAML
+    header parses to a mapping, croissant.json parses and names odms-data, and every Parquet file
+    it lists has the sha256 it records and reads back as Parquet, each split's files holding its
+    examples. InputError naming the file otherwise."""
+    import pyarrow.parquet as pq
+
+    card = (folder / "README.md").read_text(encoding="utf-8")
+    head, sep, _ = card.removeprefix("---\n").partition("\n---\n")
+    if not (card.startswith("---\n") and sep and all(map(_header_line, head.splitlines()))):
+        raise InputError("README.md: its YAML header is not the one shown_text.yaml_header writes")
+    if _not_an_export(folder):
+        raise InputError("croissant.json: does not read as odms-data's Croissant metadata")
+    listed = {d.get("contentUrl"): d.get("sha256") for d in safe_json.load_file(folder / "croissant.json")
+              ["distribution"] if isinstance(d, dict)}
+    for e in exported:
+        rows = 0
+        for f in e.files:
+            if listed.get(f) != sha256(folder / f):
+                raise InputError(f"{f}: its sha256 is not the one croissant.json records")
+            try:
+                rows += pq.ParquetFile(folder / f).metadata.num_rows
+            except Exception as err:  # pyarrow's ArrowInvalid, OSError, ...: not Parquet
+                raise InputError(f"{f}: does not read back as Parquet ({err})") from None
+        if rows != e.examples:
+            raise InputError(f"{e.split}: its Parquet files hold {rows} examples, not {e.examples}")
+
+
 def export_hub(
     stores: Sequence[str],
     out_dir: str,
@@ -183,7 +234,9 @@ def export_hub(
         licence = check_licence(licence) if licence else licence_of([s.attrs for s in opened])
         for path, s in zip(stores, opened, strict=True):  # the card publishes each store's digest
             check_recorded_digest(s, path)
-        with atomic_folder(target, EXPORT, overwrite=overwrite) as partial:
+        exported: list[SplitExport] = []
+        with atomic_folder(target, EXPORT, overwrite=overwrite,
+                           check=lambda folder: check_export(folder, exported)) as partial:
             total, done = sum(s.n_examples for s in opened), 0
 
             def written(n: int) -> None:
@@ -191,7 +244,7 @@ def export_hub(
                 done += n
                 progress(str(out_dir), done, total)
 
-            exported = [_write_split(s, partial, examples_per_file, written) for s in opened]
+            exported += [_write_split(s, partial, examples_per_file, written) for s in opened]
             title, attrs = name or target.name, [s.attrs for s in opened]
             (partial / "README.md").write_text(dataset_card(title, attrs, exported, licence))
             hashes = {f: sha256(partial / f) for e in exported for f in e.files}

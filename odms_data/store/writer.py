@@ -30,7 +30,7 @@ from ..outputs import (
     refuse_existing,
     write_error,
 )
-from ..urls import is_url, url_filesystem
+from ..urls import is_url, reaching, url_filesystem
 from .backends import HDF5_MAGIC, Backend, MaskSink, detect_format, open_backend
 from .format import (
     ARRAYS,
@@ -297,7 +297,8 @@ def _check_new_url_store(url: str, overwrite: bool) -> None:
             ours = False
         return None if ours else f"holds {len(entries)} entries that are not an odms-data store"
 
-    refuse_existing(url, fs.exists(root), overwrite, foreign, STORE)
+    with reaching(url):
+        refuse_existing(url, fs.exists(root), overwrite, foreign, STORE)
 
 
 def _fit(matrix: np.ndarray, width: int, what: str) -> np.ndarray:

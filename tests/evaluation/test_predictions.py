@@ -161,6 +161,16 @@ def test_no_stores_or_missing_file_are_one_line_errors(tmp_path, data):
     assert r.exit_code == 2 and "no such predictions file" in r.stderr
 
 
+def test_n_obs_beyond_the_examples_observations_is_refused(tmp_path, data):
+    """score --n-obs 11 on 10-observation examples was reported as n = 11; score refuses it as
+    every command does (protocol.observation_indices), naming the store."""
+    text = "\n".join([HEADER, *truth_rows()]) + "\n"
+    r = score_file(tmp_path, data, text, "--n-obs", "3")
+    assert r.exit_code == 2 and "need 2 <= n_obs <= n, got n_obs=3 for an example of 2 frames" in r.stderr
+    assert "tiny-val.zarr" in r.stderr and r.stderr.count("\n") == 1
+    assert score_file(tmp_path, data, text, "--n-obs", "2").exit_code == 0
+
+
 def test_hdf5_stores_serve_their_split_by_attribute(tmp_path):
     folder = tmp_path / "h5"
     folder.mkdir()

@@ -238,5 +238,6 @@ def test_the_card_shows_a_hostile_title_and_licence_as_text(tmp_path):
     assert (header["license"], header["license_name"]) == ("other", "research-only-b-please-b")
     body = card.split("---\n", 2)[2]  # the Markdown the Hub renders
     assert "<img" not in card and "<b>" not in card and not re.search(r"(?<!\\)\]\(javascript:", body)
-    assert "# &lt;img src=x onerror=alert(1)&gt; \\[home\\](javascript:alert(1)) \" --- license: x\n" in card
+    assert ("# &lt;img src=x onerror=alert(1)&gt; \\[home\\]\\(javascript:alert(1)) \" --- license: x\n"
+            in card)
     assert "licence: Research only &lt;b&gt;please&lt;/b&gt;." in card

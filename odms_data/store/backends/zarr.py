@@ -23,7 +23,7 @@ import numpy as np
 
 from ... import safe_json
 from ...errors import StoreError
-from ...urls import is_url, storage_options, url_filesystem
+from ...urls import is_url, reaching, storage_options, url_filesystem
 from .common import ZSTD_LEVEL, Backend, Mode, zstd_decode
 
 SETTLE_TIMEOUT_S = 60
@@ -94,7 +94,8 @@ class ZarrBackend(Backend):
         url = "/".join([str(self.path).rstrip("/"), *([name] if name else []), "zarr.json"])
         try:
             fs, key = url_filesystem(url)
-            raw = fs.cat_file(key, start=0, end=safe_json.MAX_BYTES + 1)
+            with reaching(self.path):
+                raw = fs.cat_file(key, start=0, end=safe_json.MAX_BYTES + 1)
         except FileNotFoundError:
             if not name:  # as open_backend says of a local path
                 raise StoreError(f"{self.path}: no such store (no zarr.json there)") from None

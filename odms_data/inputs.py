@@ -1,0 +1,61 @@
+"""The one place an input file is opened: a file a stranger names may be a FIFO (which blocks a
+reader forever), a device (/dev/zero never ends) or a socket; only a regular file is read, and it
+is opened without waiting on a writer (O_NONBLOCK, cleared once it is known to be a file)."""
+
+from __future__ import annotations
+
+import fcntl
+import io
+import os
+import stat
+
+from .errors import InputError, OdmsError
+
+
+def open_input(path: str | os.PathLike[str], what: str, error: type[OdmsError] = InputError) -> io.FileIO:
+    """The regular file at `path` opened for reading (binary, unbuffered); `error` naming `path`
+    and `what` it should be when it is missing, a folder, not a regular file or unreadable."""
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    except FileNotFoundError:
+        noun = what.removeprefix("a ").removeprefix("an ")
+        raise error(f"{os.fspath(path)}: no such {noun}") from None
+    except IsADirectoryError:
+        raise error(f"{os.fspath(path)}: is a folder, not {what}") from None
+    except OSError as e:
+        raise error(f"{os.fspath(path)}: cannot be read ({e.strerror or e})") from None
+    mode = os.fstat(fd).st_mode
+    if not stat.S_ISREG(mode):
+        os.close(fd)
+        kind = "a folder" if stat.S_ISDIR(mode) else "a FIFO" if stat.S_ISFIFO(mode) else \
+            "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else "not a regular file"
+        raise error(f"{os.fspath(path)}: is {kind}, not {what}")
+    fcntl.fcntl(fd, fcntl.F_SETFL, fcntl.fcntl(fd, fcntl.F_GETFL) & ~os.O_NONBLOCK)
+    return io.FileIO(fd, "rb")
+
+
+def read_input(path: str | os.PathLike[str], what: str, max_bytes: int,
+               error: type[OdmsError] = InputError) -> bytes:
+    """The bytes of the regular file at `path` (`open_input`), read no further than `max_bytes` + 1:
+    `error` when it holds more."""
+    with open_input(path, what, error) as f:
+        try:
+            data = _read_upto(f, max_bytes + 1)
+        except OSError as e:
+            raise error(f"{os.fspath(path)}: cannot be read ({e.strerror or e})") from None
+    if len(data) > max_bytes:
+        size = f"{max_bytes // 2**20} MiB" if max_bytes >= 2**20 else f"{max_bytes} bytes"
+        raise error(f"{os.fspath(path)}: larger than {size}, not {what}")
+    return data
+
+
+def _read_upto(f: io.FileIO, n: int) -> bytes:
+    parts, left = [], n
+    while left > 0:
+        chunk = f.read(min(left, 1 << 24))
+        if not chunk:
+            break
+        parts.append(chunk)
+        left -= len(chunk)
+    return b"".join(parts)
+
