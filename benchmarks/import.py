@@ -34,7 +34,7 @@ import cv2
 import numpy as np
 
 from odms_data.importers.release import scan_split
-from odms_data.paths import inside, listed_inside
+from odms_data.inputs import inside, listed_inside
 from odms_data.protocol import OFFICIAL_SPLITS as SPLITS
 from odms_data.store.reader import open_store
 

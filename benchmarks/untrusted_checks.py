@@ -30,7 +30,7 @@ import numpy as np
 
 from odms_data.evaluation.ground_truth import load_truth, verify_truth
 from odms_data.importers.mask_files import image_size
-from odms_data.paths import inside
+from odms_data.inputs import inside
 from odms_data.simulate.generate_store import generate
 from odms_data.simulate.params import GeneratorParams
 

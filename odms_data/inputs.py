@@ -1,6 +1,12 @@
-"""The one place an input file is opened: a file a stranger names may be a FIFO (which blocks a
-reader forever), a device (/dev/zero never ends) or a socket; only a regular file is read, and it
-is opened without waiting on a writer (O_NONBLOCK, cleared once it is known to be a file)."""
+"""Where the project reads a file a stranger may have written: the one place an input file is
+opened, and the one rule confining a path taken from data to its folder.
+
+An input file may be a FIFO (which blocks a reader forever), a device (/dev/zero never ends) or a
+socket; only a regular file is read, and it is opened without waiting on a writer (O_NONBLOCK,
+cleared once it is known to be a file). A name read from data (a CSV cell, a folder listing) must
+not reach outside its folder: not by `..`, not by being absolute, not by a symbolic link (or a link
+in a parent) that resolves elsewhere; `inside` is the one place that rule is written.
+"""
 
 from __future__ import annotations
 
@@ -8,6 +14,8 @@ import fcntl
 import io
 import os
 import stat
+from collections.abc import Callable
+from pathlib import Path
 
 from .errors import InputError, OdmsError
 
@@ -59,3 +67,27 @@ def _read_upto(f: io.FileIO, n: int) -> bytes:
         left -= len(chunk)
     return b"".join(parts)
 
+
+def inside(root: Path, name: str | Path, where: str) -> Path:
+    """`root / name`, once it is sure to lie inside `root` with every link resolved; InputError
+    starting with `where` (the file, row and column the name comes from) otherwise."""
+    if Path(name).is_absolute():
+        raise InputError(f"{where}: '{name}' is an absolute path; give a path inside {root}")
+    path = root / name
+    try:
+        outside = not path.resolve().is_relative_to(root.resolve())
+    except (OSError, RuntimeError) as e:  # a link loop
+        raise InputError(f"{where}: '{name}' cannot be resolved ({e})") from None
+    if outside:
+        raise InputError(f"{where}: '{name}' lies outside {root} (through '..' or a link); "
+                         f"give a path inside it")
+    return path
+
+
+def listed_inside(folder: Path, keep: Callable[[Path], bool]) -> list[Path]:
+    """The entries of `folder` that `keep` accepts, each sure to lie inside it (as `inside` makes
+    sure): a name from the folder's own listing holds no separator, so only a link is resolved;
+    one lookup for a folder of thousands of files, not one for every component of every path."""
+    with os.scandir(folder) as entries:
+        listed = [(folder / e.name, e.is_symlink()) for e in entries]
+    return [inside(folder, p.name, str(folder)) if link else p for p, link in listed if keep(p)]

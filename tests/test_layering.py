@@ -17,7 +17,7 @@ PACKAGE = Path(odms_data.__file__).resolve().parent
 LAYERS = {
     "_version": 0, "errors": 0,
     "interrupts": 1, "extras": 1, "user_cache": 1, "inputs": 1,
-    "safe_json": 2, "protocol": 2, "resources": 2, "paths": 2, "shown_text": 2, "parallel": 2, "pickles": 2,
+    "safe_json": 2, "protocol": 2, "resources": 2, "shown_text": 2, "parallel": 2, "pickles": 2,
     "urls": 2, "dask_runner": 2.5,  # beside parallel.py, whose ordered map it uses
     "outputs": 3,
     "store": 4,

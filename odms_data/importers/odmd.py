@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
-from ..paths import inside
+from ..inputs import inside
 from ..pickles import load_pickle
 from ..protocol import BENCHMARKS, SPLIT_FAMILIES
 from ..store.box_store import BoxRows

@@ -21,8 +21,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import InputError
-from ..inputs import open_input
-from ..paths import inside
+from ..inputs import inside, open_input
 from ..protocol import WHOLE, protocol_windows, window_id
 from ..store.format import store_path
 from ..store.oddity import SKIPPED, Oddity

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DigestMismatchError, InputError, OdmsError, OutputExistsError
-from ..paths import listed_inside
+from ..inputs import listed_inside
 from ..protocol import OFFICIAL_SPLITS, ROBOT_FRAMES, ROBOT_N_OBS, ROBOT_WINDOWS, protocol_windows
 from ..store.format import StoreAttrs, store_path
 from ..store.manifests import check_against_manifest, load_manifest, split_names

@@ -24,7 +24,7 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
-from ..paths import listed_inside
+from ..inputs import listed_inside
 from ..store.oddity import Oddity
 from .builder import Importer, Progress
 from .decoding import Workers

@@ -1,4 +1,4 @@
-"""Confining data paths (odms_data/paths.py): a folder's listing, links resolved only where they are."""
+"""Confining data paths (odms_data/inputs.py): a folder's listing, links resolved only where they are."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from odms_data.errors import InputError
-from odms_data.paths import listed_inside
+from odms_data.inputs import listed_inside
 
 
 def _png(p: Path) -> bool:
