@@ -166,6 +166,9 @@ class OdmsGroup(click.Group):
             return super().invoke(ctx)
         except (click.exceptions.Exit, click.ClickException, click.Abort):
             raise
+        except BrokenPipeError:  # stdout's reader went away (`| head`): stop as a Unix tool does, quietly
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # nothing left to flush at exit
+            ctx.exit(128 + signal.SIGPIPE)
         except (OdmsError, OSError) as e:
             from .fixes import with_fix
 

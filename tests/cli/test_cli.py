@@ -226,3 +226,17 @@ def test_completion_offers_split_names_and_store_paths(tmp_path):
     assert _completions("odms-data info ", tmp_path) == stores
     assert _completions("odms-data validate runs/", tmp_path) == ["plain,runs/old.zarr"]
     assert _completions("odms-data baseline vosde robot-t", tmp_path) == ["plain,robot-test"]
+
+
+def test_output_into_a_closed_pipe_stops_quietly(tmp_path):
+    """`odms-data info … | head` whose reader is gone: no error line, no traceback, SIGPIPE's code."""
+    out = tmp_path / "s.zarr"
+    assert odms("generate", "-n", "4", "-o", str(out)).returncode == 0
+    read, write = os.pipe()
+    os.close(read)  # the reader went away before the command wrote
+    try:
+        r = subprocess.run([sys.executable, "-m", "odms_data.cli", "info", str(out)], stdout=write,
+                           stderr=subprocess.PIPE, text=True)
+    finally:
+        os.close(write)
+    assert r.returncode == 128 + signal.SIGPIPE and r.stderr == ""
