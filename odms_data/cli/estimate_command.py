@@ -112,12 +112,14 @@ def _score(store: str, examples: Path, as_json: bool) -> dict:
 @click.option("--overwrite", is_flag=True, help="Replace an existing output folder and plot.")
 @click.option("--json", "as_json", is_flag=True, help="Print what was written, and the score, as JSON.")
 def estimate(store, method, checkpoint, n_obs, output, plot, workers, device, overwrite, as_json):
-    """The object's depth at every frame of a recording's STORE (`import recording`, boxes too).
+    """The object's depth at every frame of a recording's STORE (`import recording` or
+    `import detections`).
 
     Each window of the robot protocol estimates the depth at its closest frame, where the
     approaching camera ends it; a frame's depth is the median of the windows ending there, with
     their minimum and maximum (frames.csv: frame, z, true_depth, windows, unsolvable,
-    depth_median, depth_min, depth_max; frames are the store's rows, closest first). examples.csv
+    depth_median, depth_min, depth_max; frames are the recording's, closest first; other stores of
+    boxes give a row per window's frame). examples.csv
     holds every window's estimate as a predictions file. Where the store has labels, the score
     is printed. Windows the import refused (turning past --max-rotation) are listed.
     docs/ESTIMATE.md has the details.
@@ -131,6 +133,9 @@ def estimate(store, method, checkpoint, n_obs, output, plot, workers, device, ov
       odms-data estimate scene.zarr --method box-ls --n-obs 5 -o scene-box-ls
       odms-data estimate scene.zarr --method dbox --checkpoint DBox_pretrained_paper.pt -o scene-dbox
       odms-data estimate scene.zarr --method run --checkpoint runs/odn-l -o scene-odn
+      odms-data import detections scene/boxes_mot.txt --track 1 --image-size 640x480 \\
+          --poses scene/trajectory.txt --fps 30 --d1 0.3 --windows 10,15,20,25,30 -o boxes.zarr
+      odms-data estimate boxes.zarr --method box-ls -o boxes-depth
     """
     from ..evaluation.frame_depths import EXAMPLES, FRAMES, frame_depths, write_estimate
 
