@@ -44,16 +44,19 @@ def open_input(path: str | os.PathLike[str], what: str, error: type[OdmsError] =
 
 def read_input(path: str | os.PathLike[str], what: str, max_bytes: int,
                error: type[OdmsError] = InputError) -> bytes:
-    """The bytes of the regular file at `path` (`open_input`), read no further than `max_bytes` + 1:
-    `error` when it holds more."""
+    """The bytes of the regular file at `path` (`open_input`): `error` when it declares or holds more
+    than `max_bytes` (read no further than `max_bytes` + 1)."""
+    size = f"{max_bytes // 2**20} MiB" if max_bytes >= 2**20 else f"{max_bytes} bytes"
+    too_big = error(f"{os.fspath(path)}: larger than {size}, not {what}")
     with open_input(path, what, error) as f:
+        if os.fstat(f.fileno()).st_size > max_bytes:  # refused by what it declares, before reading
+            raise too_big
         try:
-            data = _read_upto(f, max_bytes + 1)
+            data = _read_upto(f, max_bytes + 1)  # + 1: a file that grew meanwhile is caught too
         except OSError as e:
             raise error(f"{os.fspath(path)}: cannot be read ({e.strerror or e})") from None
     if len(data) > max_bytes:
-        size = f"{max_bytes // 2**20} MiB" if max_bytes >= 2**20 else f"{max_bytes} bytes"
-        raise error(f"{os.fspath(path)}: larger than {size}, not {what}")
+        raise too_big
     return data
 
 

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import ast
 import os
 from pathlib import Path
 
 import pytest
+from owner_ast import nodes_outside
 
 from odms_data.errors import InputError
 from odms_data.inputs import listed_inside
@@ -48,3 +50,37 @@ def test_a_link_loop_is_refused_naming_it(tmp_path):
     os.symlink(tmp_path / "a.png", tmp_path / "b.png")
     with pytest.raises(InputError, match="cannot be resolved"):
         listed_inside(tmp_path, _png)
+
+
+# modules that open a file for reading outside inputs.py, and why that file is not a stranger's
+OWN_FILES = {
+    "writer.py": "eight bytes of an existing output, to know whether it is a store it may replace",
+    "zarr.py": "a store's shard file at its layout's own name, once the store's rules were checked",
+    "choose.py": "eight bytes of a path `is_file` found regular, for the HDF5 signature",
+    "hub_export.py": "the Parquet files this export has just written, for their sha256",
+    "leaderboard_site.py": "an earlier site's index.html, found regular, to know it may be replaced",
+}
+
+
+def _reads(node: ast.AST) -> bool:
+    """Whether `node` opens a file for reading: open(..), a path's .open(..) or os.fdopen(..) whose
+    mode (its argument or mode=) is absent or holds no w, x or a."""
+    if not isinstance(node, ast.Call):
+        return False
+    func = node.func
+    name = func.id if isinstance(func, ast.Name) else func.attr if isinstance(func, ast.Attribute) else ""
+    receiver = func.value.id if isinstance(func, ast.Attribute) and isinstance(func.value, ast.Name) else ""
+    if name not in ("open", "fdopen") or (name == "open" and (receiver in ("os", "zarr", "h5py")
+                                                              or receiver[:1].isupper())):
+        return False  # os.open, a library's or a class's own open
+    position = 0 if isinstance(func, ast.Attribute) and name == "open" else 1
+    modes = [k.value for k in node.keywords if k.arg == "mode"] + node.args[position:position + 1]
+    mode = modes[0].value if modes and isinstance(modes[0], ast.Constant) else "r"
+    return isinstance(mode, str) and not set(mode) & set("wxa")
+
+
+def test_no_module_but_inputs_opens_a_file_to_read_unless_it_is_its_own():
+    """A file a stranger names is opened only by inputs.py (a FIFO or device refused before it is
+    read); the few modules that read a file the project itself just wrote are named with why."""
+    found = sorted({name for name, node in nodes_outside("inputs.py") if _reads(node)})
+    assert found == sorted(OWN_FILES)

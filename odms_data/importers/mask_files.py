@@ -13,7 +13,6 @@ transparency is read from its alpha channel when the object is drawn there (`_rg
 from __future__ import annotations
 
 import io
-import os
 import struct
 import warnings
 import zlib
@@ -25,6 +24,7 @@ import numpy as np
 from PIL import Image
 
 from ..errors import InputError
+from ..inputs import read_input
 from .plan import DEFAULT_THRESHOLD
 
 cv2.setNumThreads(1)
@@ -124,20 +124,8 @@ def image_size(path: Path) -> tuple[int, int]:
 
 
 def _read(path: Path) -> bytes:
-    """The file's bytes, refused before they are read when it declares more than MAX_FILE_BYTES
-    (the buffer is sized by the file, not by the bound)."""
-    too_big = InputError(f"{path}: larger than the {MAX_FILE_BYTES >> 20} MiB a mask file may be")
-    try:
-        with path.open("rb") as f:
-            size = os.fstat(f.fileno()).st_size
-            if size > MAX_FILE_BYTES:
-                raise too_big
-            data = f.read(size + 1)  # one byte more: a file that grew meanwhile is caught below
-    except OSError as e:
-        raise InputError(f"{path}: cannot be read ({e.strerror or e})") from None
-    if len(data) > MAX_FILE_BYTES:
-        raise too_big
-    return data
+    """The file's bytes, refused before they are read when it declares more than MAX_FILE_BYTES."""
+    return read_input(path, "a mask file", MAX_FILE_BYTES)
 
 
 def read_png(path: Path, expect: tuple[int, int] | None = None) -> np.ndarray:

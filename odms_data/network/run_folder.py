@@ -17,6 +17,7 @@ nothing else.
 from __future__ import annotations
 
 import csv
+import io
 import json
 import math
 import os
@@ -29,6 +30,7 @@ from typing import IO, Any, get_type_hints
 from .. import safe_json
 from .._version import __version__
 from ..errors import InputError, OdmsError
+from ..inputs import open_input
 from ..outputs import OutputType, replaced_via_partial
 from ..store.manifests import load_manifest, split_names
 from .variants import variant
@@ -268,5 +270,6 @@ def _appender(out: Any, f: IO[str]) -> AddRow:
 
 
 def read_curves(path: Path) -> list[dict[str, str]]:
-    with open(path, newline="", encoding="utf-8") as f:
+    with io.TextIOWrapper(io.BufferedReader(open_input(path, "a run's curves.csv")), encoding="utf-8",
+                          newline="") as f:
         return list(csv.DictReader(f))

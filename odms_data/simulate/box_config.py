@@ -30,13 +30,12 @@ refused (the authors' files use none).
 from __future__ import annotations
 
 import difflib
-import os
-import stat
 from dataclasses import asdict
 from typing import Any
 
 from ..errors import InputError
 from ..extras import optional
+from ..inputs import read_input
 from .box_examples import BOX_PRESETS, BoxParams, box_setting_names, shown
 
 MAX_BYTES = 64 * 2**10  # the authors' files are about 300 bytes
@@ -97,16 +96,7 @@ def _check_key(path: str, key: object) -> None:
 def _read(path: str) -> dict[Any, Any]:
     """The mapping of the YAML file at `path`, bounded before it is built."""
     yaml = optional("yaml", "odms-data generate --config")
-    try:
-        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)  # a FIFO is not waited on
-        with os.fdopen(fd, "rb") as f:
-            if not stat.S_ISREG(os.fstat(fd).st_mode):
-                raise InputError(f"{path}: not a regular file, not a generator config")
-            raw = f.read(MAX_BYTES + 1)
-    except OSError as e:
-        raise InputError(f"{path}: cannot be read ({e.strerror or e})") from None
-    if len(raw) > MAX_BYTES:
-        raise InputError(f"{path}: more than the {MAX_BYTES} bytes a generator config may have")
+    raw = read_input(path, "a generator config", MAX_BYTES)
     try:
         _check_events(path, yaml.parse(raw, Loader=yaml.SafeLoader), yaml)
         data = yaml.safe_load(raw)

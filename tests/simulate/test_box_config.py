@@ -161,7 +161,7 @@ def test_without_a_preset_the_files_give_every_key(tmp_path):
 @pytest.mark.parametrize(("content", "words"), [
     (b"a: " + b"[" * 30_000 + b"]" * 30_000, ["nested deeper than"]),  # composing it would recurse
     (b"a:\n" + b"".join(b" " * i + b"- \n" for i in range(1, 300)), ["nested deeper than"]),
-    (b"z_lim: [0.55, 1]\n" * 5000, ["more than the 65536 bytes"]),
+    (b"z_lim: [0.55, 1]\n" * 5000, ["larger than 65536 bytes"]),
     (b"a: &x [1, 2]\nz_lim: *x", ["anchors and aliases"]),
     (b"z_lim: !!python/tuple [0.55, 1]", ["tags are not read"]),
     (b"- 1\n- 2", ["expected a mapping"]),
@@ -189,10 +189,11 @@ def test_config_needs_boxes_and_boxes_needs_a_preset_or_a_config(tmp_path):
 def test_what_is_not_a_regular_file_is_refused_without_waiting(tmp_path):
     fifo = tmp_path / "fifo.yaml"
     os.mkfifo(fifo)
-    assert "not a regular file" in _refusal(tmp_path, ["--boxes", "odmd", "--config", str(fifo)])
-    assert "Is a directory" in _refusal(tmp_path, ["--boxes", "odmd", "--config", str(tmp_path)])
+    assert "is a FIFO, not a generator config" in _refusal(tmp_path, ["--boxes", "odmd", "--config",
+                                                                      str(fifo)])
+    assert "is a folder" in _refusal(tmp_path, ["--boxes", "odmd", "--config", str(tmp_path)])
     missing = str(tmp_path / "none.yaml")
-    assert "cannot be read" in _refusal(tmp_path, ["--boxes", "odmd", "--config", missing])
+    assert "no such generator config" in _refusal(tmp_path, ["--boxes", "odmd", "--config", missing])
 
 
 def test_a_long_value_or_key_is_shown_cut(tmp_path):
