@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from .errors import InputError, OdmsError
-from .inputs import open_input
+from .inputs import read_input
 
 MAX_DEPTH = 64  # the deepest JSON odms-data writes is 4 levels
 MAX_BYTES = 64 * 2**20  # store attributes with a long oddity list stay far below
@@ -66,10 +66,5 @@ def _no_constant(name: str) -> float:
 
 
 def load_file(path: str | Path, error: type[OdmsError] = InputError, max_bytes: int = MAX_BYTES) -> Any:
-    """The JSON value of the regular file at `path` (inputs.py), read no further than `max_bytes` + 1."""
-    with open_input(path, "a JSON file", error) as f:
-        try:
-            raw = f.read(max_bytes + 1)
-        except OSError as e:
-            raise error(f"{path}: cannot be read ({e.strerror or e})") from None
-    return loads(raw, str(path), error, max_bytes)
+    """The JSON value of the regular file at `path` (inputs.py), refused past `max_bytes`."""
+    return loads(read_input(path, "a JSON file", max_bytes, error), str(path), error, max_bytes)

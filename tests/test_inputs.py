@@ -57,17 +57,21 @@ OWN_FILES = {
     "writer.py": "eight bytes of an existing output, to know whether it is a store it may replace",
     "zarr.py": "a store's shard file at its layout's own name, once the store's rules were checked",
     "choose.py": "eight bytes of a path `is_file` found regular, for the HDF5 signature",
-    "hub_export.py": "the Parquet files this export has just written, for their sha256",
+    "hub_export.py": "the Parquet files and card this export has just written, to check them",
+    "leaderboard.py": "the package's own entry schema",
+    "format.py": "the package's own store-attributes schema",
     "leaderboard_site.py": "an earlier site's index.html, found regular, to know it may be replaced",
 }
 
 
 def _reads(node: ast.AST) -> bool:
-    """Whether `node` opens a file for reading: open(..), a path's .open(..) or os.fdopen(..) whose
-    mode (its argument or mode=) is absent or holds no w, x or a."""
+    """Whether `node` reads a file: a path's .read_text() or .read_bytes(), or open(..), a path's
+    .open(..) or os.fdopen(..) whose mode (its argument or mode=) is absent or holds no w, x or a."""
     if not isinstance(node, ast.Call):
         return False
     func = node.func
+    if isinstance(func, ast.Attribute) and func.attr in ("read_text", "read_bytes"):
+        return True
     name = func.id if isinstance(func, ast.Name) else func.attr if isinstance(func, ast.Attribute) else ""
     receiver = func.value.id if isinstance(func, ast.Attribute) and isinstance(func.value, ast.Name) else ""
     if name not in ("open", "fdopen") or (name == "open" and (receiver in ("os", "zarr", "h5py")

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from ..inputs import read_input
 from ..protocol import MAX_RECORDING_FRAMES
 from ..safe_json import loads
 from .mask_files import MAX_PIXELS, image_size, is_mask_file
@@ -149,7 +150,7 @@ def read_mot(path: Path, size: tuple[int, int], n_frames: int | None) -> Detecti
 
 def _json_file(path: Path, what: str) -> Any:
     _bounded_size(path, MAX_FILE_BYTES, what)
-    return loads(path.read_bytes(), str(path), max_bytes=MAX_FILE_BYTES)
+    return loads(read_input(path, what, MAX_FILE_BYTES), str(path), max_bytes=MAX_FILE_BYTES)
 
 
 def _field(entry: Any, key: str, where: str) -> Any:

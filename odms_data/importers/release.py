@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DigestMismatchError, InputError, OdmsError, OutputExistsError
-from ..inputs import listed_inside
+from ..inputs import listed_inside, read_input
 from ..protocol import OFFICIAL_SPLITS, ROBOT_FRAMES, ROBOT_N_OBS, ROBOT_WINDOWS, protocol_windows
 from ..store.format import StoreAttrs, store_path
 from ..store.manifests import check_against_manifest, load_manifest, split_names
@@ -37,6 +37,7 @@ from .result import ImportResult
 # (frames per mask chunk, frames per shard): robot one folder per chunk, normal/perturb one example.
 CHUNKING = {"robot": (30, 480), "driving": (32, 1024), "normal": (10, 2000), "perturb": (10, 2000)}
 MODIFIED = "-modified"  # the suffix of a split whose content differs from its manifest
+MAX_INFO_BYTES = 1 << 24  # a driving folder's info.txt: a short line per PNG
 RELEASE = "official ODMS release (Griffin & Corso, ECCV 2020; griffbr/ODMS data/)"
 
 
@@ -74,11 +75,11 @@ def _numbered_pngs(folder: Path) -> tuple[list[Path], np.ndarray]:
 
 def _read_info(path: Path, n_pngs: int) -> tuple[np.ndarray, np.ndarray]:
     """camera_move and depth per PNG, in name order, from a driving folder's info.txt."""
+    if not path.exists():
+        raise InputError(f"{path}: missing (driving folders need camera_move and depth per PNG)")
     try:
-        lines = path.read_text().splitlines()
-    except FileNotFoundError:
-        raise InputError(f"{path}: missing (driving folders need camera_move and depth per PNG)") from None
-    except (OSError, UnicodeDecodeError) as e:
+        lines = read_input(path, "a driving folder's info.txt", MAX_INFO_BYTES).decode().splitlines()
+    except UnicodeDecodeError as e:
         raise InputError(f"{path}: cannot be read ({e})") from None
     if not lines or not lines[0].strip().startswith("camera_move"):
         raise InputError(f"{path} line 1: expected the header 'camera_move(m) depth(m)'")

@@ -24,7 +24,7 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
-from ..inputs import listed_inside
+from ..inputs import listed_inside, read_input
 from ..store.oddity import Oddity
 from .builder import Importer, Progress
 from .decoding import Workers
@@ -41,6 +41,7 @@ OCCLUSION_MARGIN = 0.5  # m; a neighbouring pixel this much closer than the obje
 REQUIRED = ("GT/LABELS", "Depth", "CameraParams")
 FRAMES_PER_CHUNK = 32
 FRAMES_PER_SHARD = 1024
+MAX_POSE_BYTES = 1 << 16  # a CameraParams file: 16 numbers
 
 
 # --- the sequence's files ------------------------------------------------------------------
@@ -105,9 +106,9 @@ def find_sequence(seq_dir: Path, camera: str, skip_bad: bool) -> tuple[SequenceF
 def read_pose(path: Path, convention: PoseConvention) -> Pose:
     """(camera centre, unit optical axis) in world coordinates from one CameraParams file."""
     try:
-        tokens = path.read_text().split()
-    except (OSError, UnicodeDecodeError) as e:
-        raise InputError(f"{path}: cannot be read ({getattr(e, 'strerror', None) or e})") from None
+        tokens = read_input(path, "a CameraParams file", MAX_POSE_BYTES).decode().split()
+    except UnicodeDecodeError as e:
+        raise InputError(f"{path}: cannot be read ({e})") from None
     if len(tokens) != 16:
         raise InputError(f"{path}: expected 16 numbers (a 4x4 matrix), found {len(tokens)}")
     values = np.empty(16)
