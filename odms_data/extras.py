@@ -17,7 +17,6 @@ EXTRAS = {  # top-level module -> the extra that installs it
     "yaml": "yaml",
     "dask": "dask", "distributed": "dask", "fsspec": "dask",
     "s3fs": "s3", "gcsfs": "gcs", "adlfs": "azure",
-    "pycocotools": "coco",
 }
 
 

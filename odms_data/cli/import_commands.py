@@ -296,8 +296,8 @@ def detections(detections, source_format, poses, pose, track, category, min_iou,
     The object is a track (--track), or the detections of a category (--category) chosen by best
     score in the first frame and followed by overlap; frames where two candidates were close are
     listed. A frame without its box is a missed detection. Boxes become a store of boxes with
-    ODMD's camera movement; COCO RLE segmentations, with --masks, a store of masks (needs
-    pycocotools). Formats and rules: docs/DETECTIONS.md.
+    ODMD's camera movement; COCO RLE segmentations, with --masks, a store of masks. Formats and
+    rules: docs/DETECTIONS.md.
 
     \b
     Examples:

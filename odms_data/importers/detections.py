@@ -18,7 +18,6 @@ approaches. docs/DETECTIONS.md.
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -26,7 +25,6 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
-from ..extras import optional
 from ..store.box_store import BoxRows
 from ..store.format import store_path
 from .association import DEFAULT_MIN_IOU, Choice, associate, choose_track
@@ -50,10 +48,11 @@ from .result import ImportResult
 # --- RLE masks -------------------------------------------------------------------------------
 
 
-def _rle_runs(counts: str, where: str) -> int:
-    """The pixels a compressed COCO RLE string's runs cover (checked before pycocotools decodes
-    it: the decoder trusts the runs to fill the image exactly)."""
-    total, prev, runs, value, shift = 0, [0, 0], 0, 0, 0
+def _rle_runs(counts: str, where: str) -> list[int]:
+    """The runs of a compressed COCO RLE string (its alphabet, its 5-bit groups and the delta of
+    each run from the one two before it, as COCO's maskApi writes them)."""
+    runs: list[int] = []
+    value, shift = 0, 0
     for ch in counts:
         c = ord(ch) - 48
         if not 0 <= c < 64:
@@ -64,16 +63,15 @@ def _rle_runs(counts: str, where: str) -> int:
             continue
         if c & 0x10:
             value -= 1 << shift
-        if runs > 2:
-            value += prev[runs % 2]
+        if len(runs) > 2:
+            value += runs[-2]
         if value < 0:
             raise InputError(f"{where}: segmentation counts has a negative run")
-        total += value
-        prev[runs % 2] = value
-        runs, value, shift = runs + 1, 0, 0
+        runs.append(value)
+        value, shift = 0, 0
     if shift:
         raise InputError(f"{where}: segmentation counts ends inside a run")
-    return total
+    return runs
 
 
 def checked_rle(seg: Any, size: tuple[int, int], where: str) -> dict[str, Any]:
@@ -90,7 +88,7 @@ def checked_rle(seg: Any, size: tuple[int, int], where: str) -> dict[str, Any]:
     if isinstance(counts, str):
         if len(counts) > MAX_RLE_CHARS:
             raise InputError(f"{where}: segmentation counts longer than {MAX_RLE_CHARS} characters")
-        total = _rle_runs(counts, where)
+        total = sum(_rle_runs(counts, where))
     else:
         if len(counts) > size[0] * size[1] + 1 or not all(
                 isinstance(v, int) and not isinstance(v, bool) and v >= 0 for v in counts):
@@ -127,15 +125,10 @@ class RleMask:
                              "other frames")
         if self.rle is None:
             return np.zeros(self.size(), bool)
-        mask = optional("pycocotools.mask", "import detections --masks")
-        rle = dict(self.rle)
-        if isinstance(rle["counts"], list):
-            rle = mask.frPyObjects(rle, self.height, self.width)
-        else:
-            rle["counts"] = rle["counts"].encode("ascii")
-        with warnings.catch_warnings():  # pycocotools 2.0 on NumPy 2: its __array__ has no copy keyword
-            warnings.simplefilter("ignore", DeprecationWarning)
-            return np.asarray(mask.decode(rle), bool)
+        counts = self.rle["counts"]
+        runs = _rle_runs(counts, self.where) if isinstance(counts, str) else counts
+        values = np.arange(len(runs)) % 2 == 1  # runs alternate, background first, column by column
+        return np.ascontiguousarray(np.repeat(values, runs).reshape(self.width, self.height).T)
 
 
 # --- poses and the plan --------------------------------------------------------------------
@@ -316,8 +309,6 @@ def import_detections(
     static object, else none."""
     path = Path(path)
     _check(camera, which, fmt, masks, n_obs, windows, d1)
-    if masks:
-        optional("pycocotools.mask", "import detections --masks")  # before anything is read
     if image_size is not None:
         image_size = checked_size(image_size, "image size")
     table = read_poses(camera.poses)
