@@ -12,6 +12,7 @@ from click.testing import CliRunner
 from PIL import Image
 
 from odms_data.cli import main
+from odms_data.importers.mask_files import image_size
 from odms_data.importers.recording import import_recording
 from odms_data.store.reader import open_store
 from odms_data.store.validate import validate
@@ -109,6 +110,17 @@ def test_mask_encodings(tmp_path):
     for i in range(3):
         np.testing.assert_array_equal(m[i], truth[f"f00{i}.png"] > 0)
     assert abs(int(m[3].sum()) - 400) < 40 and m[3][15:25, 25:35].all()
+
+
+def test_reading_a_jpeg_header_leaves_the_users_warnings_alone(tmp_path):
+    """A JPEG mask's header is read without touching the process's warning filters (Pillow's own
+    size bound warns; ours, MAX_PIXELS, is checked instead)."""
+    from users_warnings import assert_warning_filters_untouched
+
+    path = tmp_path / "m.jpg"
+    cv2.imwrite(str(path), np.zeros((H, W), np.uint8))
+    assert image_size(path) == (H, W)
+    assert_warning_filters_untouched(lambda: image_size(path))
 
 
 def _one_line_error(result, name: str) -> str:
