@@ -27,11 +27,20 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 sys.path.insert(0, str(ROOT / "tests" / "cli"))
 import _results  # noqa: E402
 import test_interrupt  # noqa: E402  # the cases themselves, run as they are
-from untrusted_reads import base_source  # noqa: E402
 
 MOMENTS = ["store begun", "fork server starts", "kernels load", "mid-run"]
 SIGNALS = [signal.SIGINT, signal.SIGTERM]
 SPIN = "while True: pass"
+
+
+def base_source(base: str, into: Path) -> str:
+    """The package and its data files at commit `base`, unpacked into `into`; its full hash."""
+    commit = subprocess.run(["git", "rev-parse", base], cwd=ROOT, check=True, capture_output=True,
+                            text=True).stdout.strip()
+    archive = subprocess.run(["git", "archive", commit, "odms_data", "schemas", "splits", "leaderboard",
+                              "setup.cfg"], cwd=ROOT, check=True, capture_output=True).stdout
+    subprocess.run(["tar", "-x", "-C", str(into)], input=archive, check=True)
+    return commit
 
 
 def run_case(moment: str, signum: signal.Signals, src: Path) -> str | None:

@@ -21,7 +21,9 @@ HEADER = """# Benchmark results
 Every figure the README and the docs quote comes from here. Each section is one script's latest
 run, rendered from its JSON in [results/](results/) by `python benchmarks/render_results.py`;
 rerun the script on your machine to get your own (it rewrites its JSON). Every script measures
-its baseline in the same run, so compare ratios across machines, not rates.
+its baseline in the same run, so compare ratios across machines, not rates. A retired script's
+section keeps its last run and says where git keeps the script; `asv continuous` in asv_bench/
+compares any two commits instead (docs/DEVELOPING.md, Benchmarks).
 """
 
 
@@ -42,9 +44,19 @@ def load(m: dict[str, Any]) -> str:
     return f"load average {start[0]} at the start, {end[0]} at the end"
 
 
+def command(r: dict[str, Any]) -> str:
+    """The command that made `r`, or, for a script gone from benchmarks/, where git keeps it."""
+    if (HERE.parent / r["script"]).is_file():
+        return f"`{r['command']}`"
+    commit, changed = r["commit"].partition("+")[::2]
+    if changed:  # it ran beside uncommitted changes: the script may be in a later commit
+        return f"Retired script, in git: `git log -- {r['script']}` (it ran at {commit} with changes)"
+    return f"Retired script, in git: `git show {commit}:{r['script']}`"
+
+
 def section(r: dict[str, Any]) -> str:
     m = r["machine"]
-    lines = [f"## {r['title']}", "", f"`{r['command']}`", "",
+    lines = [f"## {r['title']}", "", command(r), "",
              f"- run {r['date']} at commit {r['commit']}",
              f"- machine: {m['cores']} cores ({m['cores_usable']} usable), {m['cpu_model']}, "
              f"{m['memory_gib']} GiB, {m['system']}, Python {m['python']}; " + load(m)]
