@@ -98,6 +98,16 @@ def safe_children() -> None:
     os.environ.update(PYTHONSAFEPATH="1", PYTHONPATH=os.pathsep.join(path))
 
 
+def one_opencv_thread() -> None:
+    """OpenCV on one thread, in a process odms-data owns (the command line's, the fork server and
+    the workers it starts), where the work is already spread over processes. OpenCV's thread count
+    is the whole process's: a library caller's process keeps its own. Set before OpenCV's first
+    parallel call: a forked child of a process whose OpenCV started its threads hangs setting it."""
+    import cv2
+
+    cv2.setNumThreads(1)
+
+
 def _start_fork_server() -> None:
     """Start the fork server, if not yet.
 
@@ -132,6 +142,7 @@ def _nothing() -> None:
 
 def _start_worker(initializer: Callable[..., None] | None, initargs: tuple[Any, ...]) -> None:
     left_to_the_parent()  # also from a fork server not ours: the caller stops us
+    one_opencv_thread()
     parent = multiprocessing.parent_process()
     if parent is not None:
         threading.Thread(target=_exit_with, args=(parent,), daemon=True, name="exit-with-parent").start()

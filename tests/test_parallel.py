@@ -20,6 +20,28 @@ if __name__ == "__main__":
     sys.stdin.read()  # until killed
 """
 
+OPENCV = """
+import sys
+import cv2
+import numpy as np
+cv2.setNumThreads(3)  # the user's own setting
+from odms_data.importers import mask_files, synthia
+from odms_data.loaders import Transform
+from odms_data.parallel import worker_pool
+from odms_data.simulate.generate_store import generate
+from odms_data.simulate.params import GeneratorParams
+from odms_data.store.masks import mask_stats
+
+def threads():
+    return cv2.getNumThreads()
+
+if __name__ == "__main__":
+    generate(sys.argv[1], 2, GeneratorParams(image_size=(60, 80), sizes=(20,)), seed=1, workers=1)
+    mask_stats(np.ones((4, 4), bool))
+    with worker_pool(1) as pool:
+        print(cv2.getNumThreads(), pool.submit(threads).result(timeout=60))
+"""
+
 
 def state(pid: int) -> tuple[str, int] | None:
     """(state letter, parent pid) of a process, or None once it is gone."""
@@ -341,3 +363,14 @@ def test_only_parallel_starts_child_processes_and_the_command_line_makes_them_sa
     main = ast.parse(inspect.getsource(OdmsGroup.main).strip().replace("\n    ", "\n"))
     assert "safe_children" in {n.func.id for n in ast.walk(main)
                                if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)}
+
+
+def test_opencvs_threads_stay_the_callers_and_workers_get_one(tmp_path):
+    """Importing odms-data and generating in the caller's process leave OpenCV's thread count (the
+    whole process's) as the caller set it; the workers odms-data starts run OpenCV on one thread."""
+    script = tmp_path / "opencv_threads.py"
+    script.write_text(OPENCV)
+    r = subprocess.run([sys.executable, str(script), str(tmp_path / "s.zarr")], capture_output=True,
+                       text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.split() == ["3", "1"]

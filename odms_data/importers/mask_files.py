@@ -26,8 +26,6 @@ from ..errors import InputError
 from ..inputs import read_input
 from .plan import DEFAULT_THRESHOLD
 
-cv2.setNumThreads(1)
-
 MASK_SUFFIXES = (".png", ".jpg", ".jpeg")
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 # 4096 x 4096: above a 4K video frame, and a decoded 16-bit RGBA image of it is 128 MiB

@@ -34,8 +34,6 @@ from .poses import Pose, camera_pose, check_pose_direction, rotation_problem
 from .result import ImportResult, SequenceCounts, SynthiaSummary
 from .synthia_protocol import CAMERAS, CLASS_NAMES, PAPER_SELECTION, SYNTHIA_POSES, PoseConvention, Selection
 
-cv2.setNumThreads(1)
-
 NOT_OCCLUDING = (1, 3, 4, 12)  # sky, road, sidewalk, lane marking: never in front of an object
 OCCLUSION_MARGIN = 0.5  # m; a neighbouring pixel this much closer than the object hides part of it
 REQUIRED = ("GT/LABELS", "Depth", "CameraParams")

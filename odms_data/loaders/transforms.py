@@ -28,8 +28,6 @@ from ..protocol import observation_indices
 from ..simulate.shrink import resize_masks
 from .targets import labels
 
-cv2.setNumThreads(1)
-
 PAPER_SIZE = (112, 112)
 LABELS = ("d1", "d1_norm", "scale")
 TEMPLATE_SIZE = 224  # the released radial template (data/misc/radial2D.png) is 224x224

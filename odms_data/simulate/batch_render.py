@@ -31,8 +31,6 @@ from .raster import draw_silhouettes
 from .render import CROSS, render_frame
 from .shrink import computes_like_cv2, resize_masks, shrink_canvases, shrink_tables, stacked_canvases
 
-cv2.setNumThreads(1)
-
 
 @dataclass
 class FrameGeometry:

@@ -13,7 +13,6 @@ from .object_model import ExampleSpec
 from .params import GeneratorParams
 from .raster import draw_silhouette
 
-cv2.setNumThreads(1)
 CROSS = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))  # the perturbation's structuring element
 
 

@@ -25,8 +25,6 @@ from ..errors import InputError
 from ..store.masks import unpack
 from .kernel import kernel
 
-cv2.setNumThreads(1)
-
 
 def resize_masks(masks: np.ndarray, size: tuple[int, int], coverage: bool = False) -> np.ndarray:
     """(k, H, W) binary masks to (k, h, w) with cv2 INTER_AREA: uint8 0/1 (the covered fraction

@@ -4,11 +4,14 @@ the renderer's imports and compiled kernels, loaded there once, so that every wo
 A spawned worker would import the renderer and load its kernels itself before its first task; a
 forked one inherits them. Importing this module runs each kernel
 once, on the paths the generator and the loaders take: one example generated (not written) and
-one drawn at training size as coverage and as 0/1 masks.
+one drawn at training size as coverage and as 0/1 masks. OpenCV is held to one thread first:
+the fork server is odms-data's own process, and a child forked from a process whose OpenCV had
+started its thread pool hangs when it sets its own thread count.
 """
 
 from __future__ import annotations
 
+from ..parallel import one_opencv_thread
 from ..store.backends import MaskSink
 from .batch_render import render_masks, render_shrunk
 from .object_model import sample_examples
@@ -30,4 +33,5 @@ def warm() -> None:
     render_masks(specs, params, TRAINING_SIZE)
 
 
+one_opencv_thread()
 warm()

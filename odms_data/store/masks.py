@@ -14,7 +14,6 @@ def _opencv() -> ModuleType:
     """OpenCV, loaded when the first statistics are computed: reading a store never needs it."""
     import cv2
 
-    cv2.setNumThreads(1)
     return cv2
 
 
