@@ -139,9 +139,10 @@ def train(
 ) -> Status:
     """Train (or resume) the run at `path`, under its lock; `workers` processes make the stream's
     batches. Returns the final status; a run that is already complete returns at once. A run that
-    fails (an error, not an interruption, which a rerun resumes) leaves no folder it made."""
+    fails (an error, not an interruption, which a rerun resumes) leaves no folder it made. PyTorch's
+    global random state (seeded from the config) is the caller's again afterwards."""
     refuse_url(path, "a training run")
-    with output_lock(path, RUN_OUTPUT):
+    with output_lock(path, RUN_OUTPUT), torch.random.fork_rng(range(torch.cuda.device_count())):
         made = not os.path.lexists(path)
         try:
             return _train(path, config, workers, device, overwrite, report)

@@ -96,6 +96,16 @@ def test_a_stopped_run_resumes_with_the_same_batches(tmp_path, val_store):
     assert [float(r["loss"]) for r in b] == pytest.approx([float(r["loss"]) for r in a], rel=1e-4)
 
 
+def test_training_leaves_the_callers_random_state_alone(tmp_path, val_store):
+    """train seeds PyTorch from its config, and the caller's global random state is as it was."""
+    config = TrainConfig.recipe("dbox", iterations=2, batch_size=8, val_every=2, val=(str(val_store),))
+    torch.manual_seed(1234)
+    expected = torch.rand(3)
+    torch.manual_seed(1234)
+    train(tmp_path / "run", config)
+    assert torch.equal(torch.rand(3), expected)
+
+
 def _predict_direct(weights: dict, store: Path, normalized: bool = True) -> np.ndarray:
     """Depths of every example of `store` from DBox with `weights`, computed here without predict."""
     examples = StoreExamples(str(store), BoxTransform(normalized=normalized, relative=normalized))
