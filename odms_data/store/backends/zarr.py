@@ -66,9 +66,9 @@ class ZarrBackend(Backend):
         zarr_mode = "a" if mode == "w" and not is_url(path) else mode
         if mode != "w":
             self._check_metadata("")
-        from .zarr_codecs import MarkerBlindStore
+        from .zarr_codecs import StoreFolder
 
-        store = str(path) if is_url(path) else MarkerBlindStore(path, read_only=zarr_mode == "r")
+        store = str(path) if is_url(path) else StoreFolder(path, read_only=zarr_mode == "r")
         try:
             self.group = zarr.open_group(
                 store=store, mode=zarr_mode, zarr_format=3, storage_options=storage_options(path)

@@ -6,7 +6,7 @@ is always written whole; zarr would read the chunk as zeros).
 these; ZarrBackend applies it to every array it reads. Nothing is registered with zarr: every other
 array in the process reads with zarr's own codecs.
 
-`MarkerBlindStore` is the local store ZarrBackend opens a store's folder through: it lists the
+`StoreFolder` is the local store ZarrBackend opens a store's folder through: it lists the
 folder without the marker of a partial one (outputs.MARKER), which zarr would take for a foreign
 object and warn of when the store builder checks a store before its commit.
 """
@@ -91,7 +91,7 @@ def scoped(array: zarr.Array | zarr.Group) -> zarr.Array:
     return zarr.Array(zarr.AsyncArray(replace(meta, codecs=codecs), inner.store_path, inner.config))
 
 
-class MarkerBlindStore(LocalStore):
+class StoreFolder(LocalStore):
     """zarr's local store, its top folder listed without a partial folder's marker."""
 
     async def list_dir(self, prefix: str) -> AsyncIterator[str]:
