@@ -4,8 +4,10 @@ directly (as a bug, a disk or a hand would): what every command must refuse with
 from __future__ import annotations
 
 import json
+import os
 import re
 import shutil
+import stat
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -111,6 +113,24 @@ def _remove(rel: str) -> Callable[[Path], None]:
 def _write_file(rel: str, data: bytes) -> Callable[[Path], None]:
     def damage(path: Path) -> None:
         (path / rel).write_bytes(data)
+    return damage
+
+
+def copy_store(src: Path, dst: Path) -> None:
+    """A copy of a store as it is: links kept, a FIFO made anew (shutil refuses to copy one)."""
+    def copy(s: str | Path, d: str | Path) -> None:
+        os.mkfifo(d) if stat.S_ISFIFO(os.lstat(s).st_mode) else shutil.copy2(s, d)
+
+    shutil.copytree(src, dst, symlinks=True, copy_function=copy) if src.is_dir() else copy(src, dst)
+
+
+def _fifo(rel: str) -> Callable[[Path], None]:
+    """The file at `rel` (the store itself for '') replaced by a FIFO, which no writer ever opens:
+    a reader that opens it waits forever."""
+    def damage(path: Path) -> None:
+        target = path / rel if rel else path
+        target.unlink()
+        os.mkfifo(target)
     return damage
 
 
@@ -328,6 +348,10 @@ HOSTILE: dict[str, tuple[str, Callable[[Path], None]]] = {
     "an area chunk missing": ("zarr", _remove("area/c/0")),
     "masks an external link": ("h5", _h5_link("external")),
     "masks a virtual dataset": ("h5", _h5_link("virtual")),
+    "a FIFO for the mask shard": ("zarr", _fifo("masks/c/0/0/0")),
+    "a FIFO for a z chunk": ("zarr", _fifo("z/c/0")),
+    "a FIFO for an array's metadata": ("zarr", _fifo("area/zarr.json")),
+    "a FIFO for the store": ("h5", _fifo("")),
     "attributes nested 100,000 deep": ("zarr h5", _deep_json),
     "a chunk shape with an empty side": ("zarr", _empty_chunk_side),
     "every chunk index damaged": ("h5", _h5_chunk_indexes_damaged),

@@ -55,7 +55,6 @@ def test_a_link_loop_is_refused_naming_it(tmp_path):
 # modules that open a file for reading outside inputs.py, and why that file is not a stranger's
 OWN_FILES = {
     "writer.py": "eight bytes of an existing output, to know whether it is a store it may replace",
-    "zarr.py": "a store's shard file at its layout's own name, once the store's rules were checked",
     "choose.py": "eight bytes of a path `is_file` found regular, for the HDF5 signature",
     "hub_export.py": "the Parquet files and card this export has just written, to check them",
     "leaderboard.py": "the package's own entry schema",

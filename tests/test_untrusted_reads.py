@@ -96,7 +96,8 @@ def store_commands(store: str, out: str) -> dict[str, tuple[list[str], str | Non
 # the labels and ids, the VOS-DE baseline the stored areas)
 UNMASKED = ("info", "score", "baseline")
 UNREAD = {"zstd bomb in a mask chunk": UNMASKED, "zstd bomb in a z chunk": ("info", "score"),
-          "gzip bomb in a mask chunk": UNMASKED, "a mask chunk missing": UNMASKED}
+          "gzip bomb in a mask chunk": UNMASKED, "a mask chunk missing": UNMASKED,
+          "a FIFO for the mask shard": UNMASKED, "a FIFO for a z chunk": ("info", "score")}
 NAMES = [f"{name} ({backend})" for name, (backends, _) in HOSTILE.items() for backend in backends.split()]
 
 
@@ -127,7 +128,10 @@ def test_validate_names_each_hostile_class(hostile):
               "masks a virtual dataset (h5)": "virtual dataset",
               "attributes nested 100,000 deep (zarr)": "nested deeper",
               "a chunk shape with an empty side (zarr)": "with an empty side",
-              "every chunk index damaged (h5)": "wrong B-tree signature"}
+              "every chunk index damaged (h5)": "wrong B-tree signature",
+              "a FIFO for the mask shard (zarr)": "is a FIFO",
+              "a FIFO for a z chunk (zarr)": "not a regular file",
+              "a FIFO for the store (h5)": "a FIFO, device or socket"}
     results = run_limited(root, [["validate", str(stores[n].relative_to(root))] for n in expect])
     for (name, fragment), (_, out, _) in zip(expect.items(), results, strict=True):
         assert fragment in out, (name, out)

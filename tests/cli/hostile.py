@@ -50,7 +50,7 @@ if __name__ == "__main__" and "--code" in sys.argv:  # fixtures made by the chec
     sys.path.insert(0, sys.argv[sys.argv.index("--code") + 1])
 
 from _stores import make_store  # noqa: E402
-from broken_stores import DAMAGE, make_valid  # noqa: E402
+from broken_stores import DAMAGE, copy_store, make_valid  # noqa: E402
 
 CLASSES = ("data loss", "unbounded work", "internal error", "misleading answer", "consistency")
 HEADER = "split,example_id,d1"
@@ -125,7 +125,7 @@ def make_fixtures(root: Path) -> Path:
 
 def _copy(src: Path, dst: Path) -> None:
     dst.parent.mkdir(parents=True, exist_ok=True)
-    shutil.copytree(src, dst, symlinks=True) if src.is_dir() else shutil.copy(src, dst)
+    copy_store(src, dst)
 
 
 def snapshot(root: Path) -> dict[str, str]:

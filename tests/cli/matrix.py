@@ -43,6 +43,7 @@ import click
 HERE = Path(__file__).resolve().parent
 sys.path[:0] = [str(HERE), str(HERE.parent)]
 
+from broken_stores import copy_store  # noqa: E402
 from hostile import Case, Result, promises_broken, snapshot  # noqa: E402
 
 MEMORY_MIB = 1024  # peak resident memory a hostile value may cost a command (its own process)
@@ -239,7 +240,7 @@ def _copy_fixture(src: str, dst: str) -> Setup:
         if os.path.lexists(cwd / dst):
             return
         s = FIXTURES.get(src)
-        shutil.copytree(s, cwd / dst, symlinks=True) if s.is_dir() else shutil.copy(s, cwd / dst)
+        copy_store(s, cwd / dst)
     return setup
 
 

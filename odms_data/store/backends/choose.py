@@ -32,6 +32,8 @@ def open_backend(path: str, mode: Mode = "r", fmt: str | None = None) -> Backend
     if mode != "w" and local is not None:
         if not local.exists():
             raise StoreError(f"{path}: no such store")
+        if not local.is_file() and not local.is_dir():  # h5py would wait on a FIFO forever
+            raise StoreError(f"{path}: not a store (a FIFO, device or socket, not a file or folder)")
         if local.is_file() and fmt == "zarr":  # a file without the HDF5 signature
             what = ("not an HDF5 file (it lacks the HDF5 signature)" if format_of_name(local) == "hdf5"
                     else "not a store (an odms-data store is a Zarr folder or an HDF5 file)")

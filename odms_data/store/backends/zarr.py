@@ -23,6 +23,7 @@ import numpy as np
 
 from ... import safe_json
 from ...errors import StoreError
+from ...inputs import open_input
 from ...urls import is_url, reaching, storage_options, url_filesystem
 from .common import ZSTD_LEVEL, Backend, Mode, zstd_decode
 
@@ -237,7 +238,7 @@ class ShardReader:
         path = self.layout.shard_path(s)
         out_bytes = self.chunk * self.frame_bytes
         try:
-            with open(path, "rb") as f:
+            with open_input(path, f"shard {s} of the masks (a damaged store)", StoreError) as f:
                 n = index_bytes(self.per_shard)
                 data_end = f.seek(-n, 2)
                 index = decode_index(f.read(n), path)[ks.start : ks.stop]
@@ -253,8 +254,6 @@ class ShardReader:
             view = memoryview(span)
             return [np.frombuffer(zstd_decode(view[int(o) - lo : int(o + n) - lo], out_bytes), np.uint8)
                     for o, n in index]
-        except FileNotFoundError:
-            raise StoreError(f"{path}: shard {s} of the masks is missing (a damaged store)") from None
         except (OSError, ValueError) as e:
             raise StoreError(f"{path}: unreadable ({e})") from e
 

@@ -8,20 +8,23 @@ array in the process reads with zarr's own codecs.
 
 `StoreFolder` is the local store ZarrBackend opens a store's folder through: it lists the
 folder without the marker of a partial one (outputs.MARKER), which zarr would take for a foreign
-object and warn of when the store builder checks a store before its commit.
+object and warn of when the store builder checks a store before its commit, and it reads only
+regular files: a FIFO in place of a chunk would block zarr's read forever, and a device never end.
 """
 
 from __future__ import annotations
 
 import itertools
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Iterable
 from contextvars import ContextVar
 from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 import zarr
+from zarr.abc.store import ByteRequest
 from zarr.codecs import ShardingCodec, ZstdCodec
+from zarr.core.buffer import Buffer, BufferPrototype
 from zarr.storage import LocalStore
 
 from ...errors import StoreError
@@ -92,7 +95,25 @@ def scoped(array: zarr.Array | zarr.Group) -> zarr.Array:
 
 
 class StoreFolder(LocalStore):
-    """zarr's local store, its top folder listed without a partial folder's marker."""
+    """zarr's local store, its top folder listed without a partial folder's marker, reading only
+    regular files (a missing one is zarr's to handle)."""
+
+    def _regular(self, key: str) -> None:
+        path = self.root / key
+        if path.exists() and not path.is_file():
+            raise StoreError(f"{path}: not a regular file (a FIFO, device or folder), so not read")
+
+    async def get(self, key: str, prototype: BufferPrototype | None = None,
+                  byte_range: ByteRequest | None = None) -> Buffer | None:
+        self._regular(key)
+        return await super().get(key, prototype, byte_range)
+
+    async def get_partial_values(self, prototype: BufferPrototype,
+                                 key_ranges: Iterable[tuple[str, ByteRequest | None]]) -> list[Buffer | None]:
+        key_ranges = list(key_ranges)
+        for key, _ in key_ranges:
+            self._regular(key)
+        return await super().get_partial_values(prototype, key_ranges)
 
     async def list_dir(self, prefix: str) -> AsyncIterator[str]:
         async for key in super().list_dir(prefix):
