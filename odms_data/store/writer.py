@@ -96,6 +96,8 @@ def _not_a_store(path: Path) -> str | None:
         if others:
             return f"is an odms-data store that also holds {others[0]!r}"
         return None
+    if not path.is_file():  # opening a FIFO would wait for a writer forever
+        return "is a FIFO, device or socket, not an odms-data store"
     try:
         with open(path, "rb") as f:
             if f.read(8) == HDF5_MAGIC:

@@ -29,6 +29,7 @@ import os
 import resource
 import shutil
 import signal
+import stat
 import subprocess
 import sys
 import tempfile
@@ -488,6 +489,10 @@ for what, cmd in STORE_OUTPUTS.items():
          (*needs, "thesis.pdf"), says=("thesis.pdf", "not an odms-data store"))
     case(D, f"{what}: an existing store is kept", [*cmd, "tiny.h5"], (*needs, "tiny.h5"),
          says=("already exists",))
+    case(D, f"{what}: --overwrite keeps a FIFO, without waiting on it", [*cmd, "pipe.h5", "--overwrite"],
+         needs, setup=lambda cwd: os.mkfifo(cwd / "pipe.h5"), says=("pipe.h5", "is a FIFO"),
+         check=holds(lambda cwd, r: stat.S_ISFIFO(os.lstat(cwd / "pipe.h5").st_mode), "the FIFO is gone"),
+         process=True, timeout=60)
     case(D, f"{what}: --overwrite replaces a store", [*cmd, "other.zarr", "--overwrite"],
          (*needs, "other.zarr"), expect=0, outputs=("other.zarr",), check=valid_store("other.zarr"))
     case(D, f"{what}: --overwrite fills an empty folder", [*cmd, "empty", "--overwrite"],
