@@ -3,16 +3,16 @@
 Run by hand: `python benchmarks/dask_generation.py [--count 20000] [--repeat 3]` (needs the dask
 extra). Every configuration runs `odms-data generate` in a subprocess (standard preset, n = 10,
 480x640, Zarr, default shard size), so all pay the same start-up. The clusters are started once
-beforehand, as real clusters would be, and each one's start-up (until its 2 workers have joined)
-is reported apart from the throughput: a default deployment (`dask scheduler` and `dask worker
---nworkers 2 --nthreads 1` processes, the workers under Dask's nanny, which sets
-MALLOC_TRIM_THRESHOLD_=65536 in them), the same without the nanny, a LocalCluster, and a
-LocalCluster whose workers run without Dask's statistical profiler (a setting of the user's
-cluster, docs/DISTRIBUTED.md). Runs alternate between the configurations, and the median of
-`--repeat` runs is reported, so a load that drifts during the run affects all alike; CPU-seconds
-are exact (Linux): those of every process of the command's tree, its workers included, and of the
-cluster's processes (a LocalCluster's workers; its scheduler and nannies run in this process). The
-overhead of an engine is `1 - ratio`. All stores must have the same digest.
+beforehand, as real clusters would be, and each one's start-up (until its 2 workers have joined
+and made a first shard: their first imports) is reported apart from the throughput: a default
+deployment (`dask scheduler` and `dask worker --nworkers 2 --nthreads 1` processes, the workers
+under Dask's nanny, which sets MALLOC_TRIM_THRESHOLD_=65536 in them), the same without the nanny,
+a LocalCluster, and a LocalCluster whose workers run without Dask's statistical profiler (a
+setting of the user's cluster, docs/DISTRIBUTED.md). Runs alternate between the configurations,
+and the median of `--repeat` runs is reported, so a load that drifts during the run affects all
+alike; CPU-seconds are exact (Linux): those of every process of the command's tree, its workers
+included, and of the cluster's processes (a LocalCluster's workers; its scheduler and nannies run
+in this process). The overhead of an engine is `1 - ratio`. All stores must have the same digest.
 """
 
 from __future__ import annotations
@@ -163,6 +163,9 @@ def main() -> None:
                 configs[name] = (["-o", str(tmp / f"{len(configs)}.zarr"), "--scheduler",
                                   cluster.scheduler_address],
                                  [w.process.pid for w in cluster.workers.values()])
+            for name, (args, pids) in configs.items():
+                if name in start_up:  # a cluster: its workers' first imports are part of its start-up
+                    start_up[name] += run(["-n", "512", "--overwrite", *args], pids)[0]
             print("clusters' start-up (not counted below): "
                   + ", ".join(f"{k} {v:.1f} s" for k, v in start_up.items()))
             for _ in range(a.repeat):
