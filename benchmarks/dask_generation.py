@@ -48,18 +48,21 @@ LOCAL_CLUSTERS = {  # LocalClusters by name, and the Dask settings of each
 }
 
 
-def tree_cpu(pids: list[int]) -> float:
-    """CPU-seconds so far of these processes and all their descendants."""
-    total = 0.0
+def tree_cpu(pids: list[int]) -> tuple[float, float]:
+    """CPU-seconds so far of these processes and all their descendants, and of their main threads
+    alone: a Dask process's event loop (heartbeats, the profiler, messages), its tasks running in
+    other threads."""
+    total = loop = 0.0
     for pid in pids:
         try:
             root = psutil.Process(pid)
             for p in [root, *root.children(recursive=True)]:
                 t = p.cpu_times()
                 total += t.user + t.system
+                loop += sum(t.user_time + t.system_time for t in p.threads() if t.id == p.pid)
         except psutil.Error:
             pass
-    return total
+    return total, loop
 
 
 # Runs a command as its only child and reaps every process of its tree, its fork server's workers
@@ -76,11 +79,12 @@ while True:
 """
 
 
-def run(args: list[str], cluster_pids: list[int]) -> tuple[float, float, str]:
-    """Wall seconds, CPU-seconds (the command and every process of its tree, and the cluster's) and
-    the digest of one `generate`. The command does not reap its fork server, so its workers' CPU
-    would never reach its own RUSAGE_CHILDREN: it runs under REAPER, which reaps them all."""
-    k0, t = tree_cpu(cluster_pids), time.perf_counter()
+def run(args: list[str], cluster_pids: list[int]) -> tuple[float, float, float, str]:
+    """Wall seconds, CPU-seconds (the command and every process of its tree, and the cluster's),
+    those of the cluster's event loops (`tree_cpu`) and the digest of one `generate`. The command
+    does not reap its fork server, so its workers' CPU would never reach its own RUSAGE_CHILDREN:
+    it runs under REAPER, which reaps them all."""
+    (k0, loop0), t = tree_cpu(cluster_pids), time.perf_counter()
     with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
         command = [sys.executable, "-I", "-c", REAPER, sys.executable, "-m", "odms_data.cli", "generate",
                    *args]
@@ -91,10 +95,11 @@ def run(args: list[str], cluster_pids: list[int]) -> tuple[float, float, str]:
         out.seek(0)
         err.seek(0)
         stdout, stderr = out.read(), err.read()
-    cpu = usage.ru_utime + usage.ru_stime + tree_cpu(cluster_pids) - k0
+    k1, loop1 = tree_cpu(cluster_pids)
     if proc.returncode:
         raise SystemExit(f"odms-data generate {' '.join(args)} failed: {stderr.strip()}")
-    return secs, cpu, stdout.rsplit("digest ", 1)[1].split()[0]
+    cpu = usage.ru_utime + usage.ru_stime + k1 - k0
+    return secs, cpu, loop1 - loop0, stdout.rsplit("digest ", 1)[1].split()[0]
 
 
 @contextmanager
@@ -133,7 +138,7 @@ def main() -> None:
     _results.add_options(ap)
     a = ap.parse_args()
     tmp = Path(tempfile.mkdtemp())
-    times: dict[str, list[tuple[float, float]]] = {}
+    times: dict[str, list[tuple[float, float, float]]] = {}
     digests = set()
     start_up: dict[str, float] = {}
     try:
@@ -170,8 +175,8 @@ def main() -> None:
                   + ", ".join(f"{k} {v:.1f} s" for k, v in start_up.items()))
             for _ in range(a.repeat):
                 for name, (args, pids) in configs.items():
-                    secs, cpu, digest = run(["-n", str(a.count), "--overwrite", *args], pids)
-                    times.setdefault(name, []).append((secs, cpu))
+                    secs, cpu, loop, digest = run(["-n", str(a.count), "--overwrite", *args], pids)
+                    times.setdefault(name, []).append((secs, cpu, loop))
                     digests.add(digest)
     finally:
         shutil.rmtree(tmp)
@@ -179,20 +184,23 @@ def main() -> None:
         raise SystemExit(f"digests differ between configurations: {sorted(digests)}")
     print(f"{a.count} examples, median of {a.repeat} runs each; digest {digests.pop()}; "
           f"load average {psutil.getloadavg()[0]:.1f} on {psutil.cpu_count()} CPUs")
-    base = a.count / statistics.median(s for s, _ in times["local --workers 2"])
-    base_cpu = a.count / statistics.median(c for _, c in times["local --workers 2"])
+    base = a.count / statistics.median(s for s, _, _ in times["local --workers 2"])
+    base_cpu = a.count / statistics.median(c for _, c, _ in times["local --workers 2"])
     print(f"{'configuration':32} {'ex/s':>7} {'x local':>8} {'ex/CPU-s':>9} {'x local':>8} "
-          f"{'start-up':>9}   runs (s)")
+          f"{'loops CPU-s/1000':>16} {'start-up':>9}   runs (s)")
     rows = []
     for name, runs in times.items():
-        rate = a.count / statistics.median(s for s, _ in runs)
-        per_cpu = a.count / statistics.median(c for _, c in runs)
+        rate = a.count / statistics.median(s for s, _, _ in runs)
+        per_cpu = a.count / statistics.median(c for _, c, _ in runs)
+        loops = 1000 / a.count * statistics.median(k for _, _, k in runs) if configs[name][1] else None
         up = start_up.get(name)
         print(f"{name:32} {rate:7.0f} {rate / base:8.2f} {per_cpu:9.0f} {per_cpu / base_cpu:8.2f} "
-              f"{'' if up is None else f'{up:.1f} s':>9}   {' '.join(f'{s:.1f}' for s, _ in runs)}")
+              f"{'' if loops is None else f'{loops:.3f}':>16} {'' if up is None else f'{up:.1f} s':>9}   "
+              f"{' '.join(f'{s:.1f}' for s, _, _ in runs)}")
         rows.append({"configuration": name, "examples/s": rate, "x local": rate / base,
                      "examples/CPU-s": per_cpu, "x local (CPU)": per_cpu / base_cpu,
-                     "cluster start-up s (apart)": up, "runs (s)": " ".join(f"{s:.1f}" for s, _ in runs)})
+                     "cluster event loops CPU-s/1000 examples": loops, "cluster start-up s (apart)": up,
+                     "runs (s)": " ".join(f"{s:.1f}" for s, _, _ in runs)})
     _results.save(a, f"Generating on Dask clusters against local workers ({a.count} examples, median of "
                   f"{a.repeat} runs)", {"what": "local `generate --workers 2`", "value": base_cpu,
                                         "unit": "examples/CPU-s"}, rows)
