@@ -3,20 +3,23 @@
 Run by hand: `python benchmarks/dask_generation.py [--count 20000] [--repeat 3]` (needs the dask
 extra). Every configuration runs `odms-data generate` in a subprocess (standard preset, n = 10,
 480x640, Zarr, default shard size), so all pay the same start-up. The clusters are started once
-beforehand, as real clusters would be, and each one's start-up (until its 2 workers have joined)
-is reported apart from the throughput: a default deployment (`dask scheduler` and `dask worker
---nworkers 2 --nthreads 1` processes, the workers under Dask's nanny, which sets
-MALLOC_TRIM_THRESHOLD_=65536 in them), the same without the nanny, and a LocalCluster. Runs
-alternate between the configurations, and the median of `--repeat` runs is reported, so a load
-that drifts during the run affects all alike; CPU-seconds are those of the generating processes
-(the client, and the workers, or the cluster's worker processes), from /proc. The overhead of an
-engine is `1 - ratio`. All stores must have the same digest.
+beforehand, as real clusters would be, and each one's start-up (until its 2 workers have joined
+and made a first shard: their first imports) is reported apart from the throughput: a default
+deployment (`dask scheduler` and `dask worker --nworkers 2 --nthreads 1` processes, the workers
+under Dask's nanny, which sets MALLOC_TRIM_THRESHOLD_=65536 in them), the same without the nanny,
+a LocalCluster, and a LocalCluster whose workers run without Dask's statistical profiler (a
+setting of the user's cluster, docs/DISTRIBUTED.md). Runs alternate between the configurations,
+and the median of `--repeat` runs is reported, so a load that drifts during the run affects all
+alike; CPU-seconds are exact (Linux): those of every process of the command's tree, its workers
+included, and of the cluster's processes (a LocalCluster's workers; its scheduler and nannies run
+in this process). The overhead of an engine is `1 - ratio`. All stores must have the same digest.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import shutil
 import statistics
 import subprocess
@@ -28,6 +31,7 @@ from contextlib import ExitStack, contextmanager
 from pathlib import Path
 from typing import Any
 
+import dask
 import psutil
 
 # run as a script, this file's own folder comes first on sys.path, where its name hides the package
@@ -38,49 +42,64 @@ sys.path.append(str(Path(__file__).resolve().parent))  # last: nothing here shad
 import _results  # noqa: E402
 
 DASK = Path(sys.executable).with_name("dask")
+LOCAL_CLUSTERS = {  # LocalClusters by name, and the Dask settings of each
+    "dask LocalCluster": {},
+    "dask LocalCluster, profiler off": {"distributed.worker.profile.enabled": False},
+}
 
 
-def tree_cpu(pids: list[int]) -> float:
-    """CPU-seconds so far of these processes and all their descendants."""
-    total = 0.0
+def tree_cpu(pids: list[int]) -> tuple[float, float]:
+    """CPU-seconds so far of these processes and all their descendants, and of their main threads
+    alone: a Dask process's event loop (heartbeats, the profiler, messages), its tasks running in
+    other threads."""
+    total = loop = 0.0
     for pid in pids:
         try:
             root = psutil.Process(pid)
             for p in [root, *root.children(recursive=True)]:
                 t = p.cpu_times()
                 total += t.user + t.system
+                loop += sum(t.user_time + t.system_time for t in p.threads() if t.id == p.pid)
         except psutil.Error:
             pass
-    return total
+    return total, loop
 
 
-def run(args: list[str], cluster_pids: list[int]) -> tuple[float, float, str]:
-    """Wall seconds, CPU-seconds (the command, its descendants and the cluster) and the digest of
-    one `generate`. The command does not reap its fork server, so its workers' CPU never reaches
-    RUSAGE_CHILDREN: every process of the command's tree is sampled every 0.1 s instead, and each
-    counts its last sample (what a process spends in its last 0.1 s is missed)."""
-    k0, t = tree_cpu(cluster_pids), time.perf_counter()
-    seen: dict[int, float] = {}
+# Runs a command as its only child and reaps every process of its tree, its fork server's workers
+# included (this process adopts them as they are orphaned: Linux's child subreaper), so that the
+# wait4 of this process returns the whole tree's CPU, exactly.
+REAPER = """import ctypes, os, subprocess, sys
+ctypes.CDLL(None, use_errno=True).prctl(36, 1, 0, 0, 0)  # PR_SET_CHILD_SUBREAPER
+code = subprocess.call(sys.argv[1:])
+while True:
+    try:
+        os.wait()
+    except ChildProcessError:
+        sys.exit(code)
+"""
+
+
+def run(args: list[str], cluster_pids: list[int]) -> tuple[float, float, float, str]:
+    """Wall seconds, CPU-seconds (the command and every process of its tree, and the cluster's),
+    those of the cluster's event loops (`tree_cpu`) and the digest of one `generate`. The command
+    does not reap its fork server, so its workers' CPU would never reach its own RUSAGE_CHILDREN:
+    it runs under REAPER, which reaps them all."""
+    (k0, loop0), t = tree_cpu(cluster_pids), time.perf_counter()
     with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
-        command = [sys.executable, "-m", "odms_data.cli", "generate", *args]
+        command = [sys.executable, "-I", "-c", REAPER, sys.executable, "-m", "odms_data.cli", "generate",
+                   *args]
         proc = subprocess.Popen(command, stdout=out, stderr=err, text=True)
-        while proc.poll() is None:
-            try:
-                root = psutil.Process(proc.pid)
-                for q in [root, *root.children(recursive=True)]:
-                    c = q.cpu_times()
-                    seen[q.pid] = c.user + c.system
-            except psutil.Error:
-                pass  # a process that has just ended keeps its last sample
-            time.sleep(0.1)
+        _, status, usage = os.wait4(proc.pid, 0)
+        proc.returncode = os.waitstatus_to_exitcode(status)
         secs = time.perf_counter() - t
         out.seek(0)
         err.seek(0)
         stdout, stderr = out.read(), err.read()
-    cpu = sum(seen.values()) + tree_cpu(cluster_pids) - k0
+    k1, loop1 = tree_cpu(cluster_pids)
     if proc.returncode:
         raise SystemExit(f"odms-data generate {' '.join(args)} failed: {stderr.strip()}")
-    return secs, cpu, stdout.rsplit("digest ", 1)[1].split()[0]
+    cpu = usage.ru_utime + usage.ru_stime + k1 - k0
+    return secs, cpu, loop1 - loop0, stdout.rsplit("digest ", 1)[1].split()[0]
 
 
 @contextmanager
@@ -119,7 +138,7 @@ def main() -> None:
     _results.add_options(ap)
     a = ap.parse_args()
     tmp = Path(tempfile.mkdtemp())
-    times: dict[str, list[tuple[float, float]]] = {}
+    times: dict[str, list[tuple[float, float, float]]] = {}
     digests = set()
     start_up: dict[str, float] = {}
     try:
@@ -142,17 +161,22 @@ def main() -> None:
                 if a.url:
                     configs["dask (nanny) -> file://"] = (
                         ["-o", f"file://{tmp}/url.zarr", "--scheduler", nanny], nanny_pids)
-            local = started("dask LocalCluster", lambda: LocalCluster(
-                n_workers=2, processes=True, threads_per_worker=1, dashboard_address=":0"))
+            for name, config in LOCAL_CLUSTERS.items():
+                with dask.config.set(config):  # copied into its workers as they start
+                    cluster = started(name, lambda: LocalCluster(
+                        n_workers=2, processes=True, threads_per_worker=1, dashboard_address=":0"))
+                configs[name] = (["-o", str(tmp / f"{len(configs)}.zarr"), "--scheduler",
+                                  cluster.scheduler_address],
+                                 [w.process.pid for w in cluster.workers.values()])
+            for name, (args, pids) in configs.items():
+                if name in start_up:  # a cluster: its workers' first imports are part of its start-up
+                    start_up[name] += run(["-n", "512", "--overwrite", *args], pids)[0]
             print("clusters' start-up (not counted below): "
                   + ", ".join(f"{k} {v:.1f} s" for k, v in start_up.items()))
-            local_pids = [w.process.pid for w in local.workers.values()]
-            on_local = ["-o", str(tmp / "lc.zarr"), "--scheduler", local.scheduler_address]
-            configs["dask LocalCluster"] = (on_local, local_pids)
             for _ in range(a.repeat):
                 for name, (args, pids) in configs.items():
-                    secs, cpu, digest = run(["-n", str(a.count), "--overwrite", *args], pids)
-                    times.setdefault(name, []).append((secs, cpu))
+                    secs, cpu, loop, digest = run(["-n", str(a.count), "--overwrite", *args], pids)
+                    times.setdefault(name, []).append((secs, cpu, loop))
                     digests.add(digest)
     finally:
         shutil.rmtree(tmp)
@@ -160,20 +184,23 @@ def main() -> None:
         raise SystemExit(f"digests differ between configurations: {sorted(digests)}")
     print(f"{a.count} examples, median of {a.repeat} runs each; digest {digests.pop()}; "
           f"load average {psutil.getloadavg()[0]:.1f} on {psutil.cpu_count()} CPUs")
-    base = a.count / statistics.median(s for s, _ in times["local --workers 2"])
-    base_cpu = a.count / statistics.median(c for _, c in times["local --workers 2"])
-    print(f"{'configuration':24} {'ex/s':>7} {'x local':>8} {'ex/CPU-s':>9} {'x local':>8} "
-          f"{'start-up':>9}   runs (s)")
+    base = a.count / statistics.median(s for s, _, _ in times["local --workers 2"])
+    base_cpu = a.count / statistics.median(c for _, c, _ in times["local --workers 2"])
+    print(f"{'configuration':32} {'ex/s':>7} {'x local':>8} {'ex/CPU-s':>9} {'x local':>8} "
+          f"{'loops CPU-s/1000':>16} {'start-up':>9}   runs (s)")
     rows = []
     for name, runs in times.items():
-        rate = a.count / statistics.median(s for s, _ in runs)
-        per_cpu = a.count / statistics.median(c for _, c in runs)
+        rate = a.count / statistics.median(s for s, _, _ in runs)
+        per_cpu = a.count / statistics.median(c for _, c, _ in runs)
+        loops = 1000 / a.count * statistics.median(k for _, _, k in runs) if configs[name][1] else None
         up = start_up.get(name)
-        print(f"{name:24} {rate:7.0f} {rate / base:8.2f} {per_cpu:9.0f} {per_cpu / base_cpu:8.2f} "
-              f"{'' if up is None else f'{up:.1f} s':>9}   {' '.join(f'{s:.1f}' for s, _ in runs)}")
+        print(f"{name:32} {rate:7.0f} {rate / base:8.2f} {per_cpu:9.0f} {per_cpu / base_cpu:8.2f} "
+              f"{'' if loops is None else f'{loops:.3f}':>16} {'' if up is None else f'{up:.1f} s':>9}   "
+              f"{' '.join(f'{s:.1f}' for s, _, _ in runs)}")
         rows.append({"configuration": name, "examples/s": rate, "x local": rate / base,
                      "examples/CPU-s": per_cpu, "x local (CPU)": per_cpu / base_cpu,
-                     "cluster start-up s (apart)": up, "runs (s)": " ".join(f"{s:.1f}" for s, _ in runs)})
+                     "cluster event loops CPU-s/1000 examples": loops, "cluster start-up s (apart)": up,
+                     "runs (s)": " ".join(f"{s:.1f}" for s, _, _ in runs)})
     _results.save(a, f"Generating on Dask clusters against local workers ({a.count} examples, median of "
                   f"{a.repeat} runs)", {"what": "local `generate --workers 2`", "value": base_cpu,
                                         "unit": "examples/CPU-s"}, rows)
