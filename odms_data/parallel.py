@@ -99,13 +99,21 @@ def safe_children() -> None:
 
 
 def one_opencv_thread() -> None:
-    """OpenCV on one thread, in a process odms-data owns (the command line's, the fork server and
-    the workers it starts), where the work is already spread over processes. OpenCV's thread count
-    is the whole process's: a library caller's process keeps its own. Set before OpenCV's first
-    parallel call: a forked child of a process whose OpenCV started its threads hangs setting it."""
+    """OpenCV on one thread, in a process odms-data owns (the fork server and the workers it
+    starts; the command line's: `commands_use_one_opencv_thread`), where the work is already
+    spread over processes. OpenCV's thread count is the whole process's: a library caller's
+    process keeps its own. Set before OpenCV's first parallel call: a forked child of a process
+    whose OpenCV started its threads hangs setting it."""
     import cv2
 
     cv2.setNumThreads(1)
+
+
+def commands_use_one_opencv_thread() -> None:
+    """The command line's OpenCV, and that of every child it starts, on one thread: OpenCV reads
+    OPENCV_FOR_THREADS_NUM when it starts, and the command line sets it before anything imports
+    OpenCV (`--help` never does); a value the user set stays."""
+    os.environ.setdefault("OPENCV_FOR_THREADS_NUM", "1")
 
 
 def _start_fork_server() -> None:

@@ -374,3 +374,16 @@ def test_opencvs_threads_stay_the_callers_and_workers_get_one(tmp_path):
                        text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     assert r.stdout.split() == ["3", "1"]
+
+
+def test_the_command_line_runs_opencv_on_one_thread():
+    """A command's own process (and every child it starts, through the environment) runs OpenCV on
+    one thread, unless the user chose a count."""
+    code = ("from odms_data.cli import main\ntry:\n    main(['info', '--help'])\n"
+            "except SystemExit:\n    pass\nimport cv2\nprint(cv2.getNumThreads())")
+    env = {k: v for k, v in os.environ.items() if k != "OPENCV_FOR_THREADS_NUM"}
+    for chosen, expect in ((None, "1"), ("2", "2")):
+        extra = {"OPENCV_FOR_THREADS_NUM": chosen} if chosen else {}
+        r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env={**env, **extra},
+                           timeout=120)
+        assert r.stdout.split()[-1] == expect, r.stderr

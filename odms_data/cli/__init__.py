@@ -23,7 +23,7 @@ import click
 from .._version import __version__
 from ..errors import Interrupted, OdmsError
 from ..interrupts import stops_interrupt
-from ..parallel import one_opencv_thread, safe_children
+from ..parallel import commands_use_one_opencv_thread, safe_children
 from ..shown_text import for_terminal
 from ..urls import refuse_transient
 
@@ -140,7 +140,7 @@ class OdmsGroup(click.Group):
             return super().main(args, prog_name, complete_var, standalone_mode, **extra)
         _printable_anywhere()
         safe_children()
-        one_opencv_thread()
+        commands_use_one_opencv_thread()
         with stops_interrupt():
             try:
                 code = super().main(args, prog_name, complete_var, False, **extra)
