@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import contextlib
 import io
+import tempfile
+from pathlib import Path
 
 from odms_data.cli import main
 
@@ -24,3 +26,17 @@ def make_store(path: str, count: int = EXAMPLES) -> str:
     """Generate a store of `count` standard examples at `path` (.zarr or .h5) in one process."""
     odms_data("generate", "-n", str(count), "--seed", "0", "--workers", "1", "-o", path, "--overwrite")
     return path
+
+
+class InFolder:
+    """A fresh temporary folder for each timed run, removed after it: `self.out(name)` is a path
+    in it. asv passes a benchmark's parameters to setup and teardown."""
+
+    def setup(self, *params: object) -> None:
+        self.folder = tempfile.TemporaryDirectory()
+
+    def teardown(self, *params: object) -> None:
+        self.folder.cleanup()
+
+    def out(self, name: str) -> str:
+        return str(Path(self.folder.name) / name)

@@ -3,16 +3,15 @@ predictions file as big as the official ODMS test (Box_LS's, made once in setup_
 
 from __future__ import annotations
 
-import tempfile
 from pathlib import Path
 
-from ._cli import odms_data
+from ._cli import InFolder, odms_data
 
 COUNT = 15_650
 """Examples in the store of boxes: the official ODMS test's size."""
 
 
-class Boxes:
+class Boxes(InFolder):
     timeout = 300
 
     def setup_cache(self) -> None:
@@ -20,15 +19,9 @@ class Boxes:
                   "--overwrite")
         odms_data("baseline", "box-ls", "boxes.zarr", "-o", "box-ls.csv", "--overwrite")
 
-    def setup(self) -> None:
-        self.folder = tempfile.TemporaryDirectory()
-
-    def teardown(self) -> None:
-        self.folder.cleanup()
-
     def time_generate_boxes(self) -> None:
-        output = str(Path(self.folder.name) / "boxes.zarr")
-        odms_data("generate", "--boxes", "odmd", "-n", str(COUNT), "--seed", "0", "-o", output)
+        odms_data("generate", "--boxes", "odmd", "-n", str(COUNT), "--seed", "0",
+                  "-o", self.out("boxes.zarr"))
 
     def time_score_big_file(self) -> None:
         odms_data("score", str(Path("box-ls.csv").resolve()), "--data", str(Path("boxes.zarr").resolve()))

@@ -2,26 +2,16 @@
 
 from __future__ import annotations
 
-import tempfile
-from pathlib import Path
-
-from ._cli import make_store
+from ._cli import InFolder, make_store
 
 
-class Generate:
+class Generate(InFolder):
     params = ["zarr", "h5"]
     param_names = ["backend"]
     timeout = 300
 
-    def setup(self, backend: str) -> None:
-        self.folder = tempfile.TemporaryDirectory()
-        self.output = str(Path(self.folder.name) / f"sim.{backend}")
-
-    def teardown(self, backend: str) -> None:
-        self.folder.cleanup()
-
     def time_generate(self, backend: str) -> None:
-        make_store(self.output)
+        make_store(self.out(f"sim.{backend}"))
 
     def peakmem_generate(self, backend: str) -> None:
-        make_store(self.output)
+        make_store(self.out(f"sim.{backend}"))

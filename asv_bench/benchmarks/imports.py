@@ -3,19 +3,18 @@ store with the robot protocol's windows (one decoding process)."""
 
 from __future__ import annotations
 
-import tempfile
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from ._cli import odms_data
+from ._cli import InFolder, odms_data
 
 FRAMES = 120
 WINDOWS = "10,15,20,25,30"
 
 
-class ImportRecording:
+class ImportRecording(InFolder):
     timeout = 300
 
     def setup_cache(self) -> None:
@@ -31,15 +30,9 @@ class ImportRecording:
             rows.append(f"{i:04d}.png,{z},{0.5 + z}")
         Path("positions.csv").write_text("\n".join(rows) + "\n")
 
-    def setup(self) -> None:
-        self.folder = tempfile.TemporaryDirectory()
-
-    def teardown(self) -> None:
-        self.folder.cleanup()
-
     def time_import_recording(self) -> None:
-        output = str(Path(self.folder.name) / "recording.zarr")
         odms_data(
             "import", "recording", str(Path("masks").resolve()), "--positions",
-            str(Path("positions.csv").resolve()), "--windows", WINDOWS, "-o", output, "--workers", "1",
+            str(Path("positions.csv").resolve()), "--windows", WINDOWS, "-o", self.out("recording.zarr"),
+            "--workers", "1",
         )

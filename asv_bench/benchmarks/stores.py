@@ -4,16 +4,15 @@ score, and reading every example through the NumPy loader. The stores are genera
 
 from __future__ import annotations
 
-import tempfile
 from pathlib import Path
 
-from ._cli import make_store, odms_data
+from ._cli import InFolder, make_store, odms_data
 
 BACKENDS = {"zarr": "sim.zarr", "h5": "sim.h5"}
 OTHER = {"zarr": "h5", "h5": "zarr"}
 
 
-class _Stores:
+class _Stores(InFolder):
     params = list(BACKENDS)
     param_names = ["backend"]
     timeout = 300
@@ -24,11 +23,8 @@ class _Stores:
         odms_data("baseline", "vosde", "sim.zarr", "--data", "sim.zarr", "-o", "vosde.csv", "--overwrite")
 
     def setup(self, backend: str) -> None:
+        super().setup()
         self.store = str(Path(BACKENDS[backend]).resolve())
-        self.folder = tempfile.TemporaryDirectory()
-
-    def teardown(self, backend: str) -> None:
-        self.folder.cleanup()
 
 
 class Validate(_Stores):
@@ -38,13 +34,13 @@ class Validate(_Stores):
 
 class Convert(_Stores):
     def time_convert(self, backend: str) -> None:
-        copy = str(Path(self.folder.name) / f"copy.{OTHER[backend]}")
+        copy = self.out(f"copy.{OTHER[backend]}")
         odms_data("convert", self.store, copy, "--overwrite")
 
 
 class Score(_Stores):
     def time_baseline_vosde(self, backend: str) -> None:
-        output = str(Path(self.folder.name) / "vosde.csv")
+        output = self.out("vosde.csv")
         odms_data("baseline", "vosde", self.store, "--data", self.store, "-o", output, "--overwrite")
 
     def time_score(self, backend: str) -> None:
