@@ -7,6 +7,7 @@
 - `uninterrupted()`: a step that a stop must not cut in two waits for it.
 - `held(signals)`: signals held on this thread while a child process starts, which inherits them
   held (parallel.py's fork server); `left_to_the_parent()`: a worker ignores Ctrl-C.
+- `stop_within(error)`: the stop an error carries, where a C extension turned it into another.
 """
 
 from __future__ import annotations
@@ -27,6 +28,20 @@ RESEND_S = 0.01  # how often a stop that a finalizer swallowed is sent again
 
 _deferring = 0  # depth of `uninterrupted` blocks
 _deferred: int | None = None  # the signal that came during one
+
+
+def stop_within(error: BaseException) -> Interrupted | None:
+    """The stop `error` is, or carries as its cause or context: a stop whose handler ran inside a C
+    extension can come back as another error (Numba's dispatcher then returns a SystemError caused
+    by it), and is still a stop, not a failure."""
+    seen: set[int] = set()
+    e: BaseException | None = error
+    while e is not None and id(e) not in seen:
+        if isinstance(e, Interrupted):
+            return e
+        seen.add(id(e))
+        e = e.__cause__ or e.__context__
+    return None
 
 
 def stop_requested(signum: int) -> None:

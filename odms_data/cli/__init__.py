@@ -16,13 +16,13 @@ import os
 import signal
 import sys
 from importlib import import_module
-from typing import Any
+from typing import Any, NoReturn
 
 import click
 
 from .._version import __version__
 from ..errors import Interrupted, OdmsError
-from ..interrupts import stops_interrupt
+from ..interrupts import stop_within, stops_interrupt
 from ..parallel import commands_use_one_opencv_thread, safe_children
 from ..shown_text import for_terminal
 from ..urls import refuse_transient
@@ -176,11 +176,10 @@ class OdmsGroup(click.Group):
             click.echo(f"odms-data: error: {one_line(with_fix(e))}", err=True)
             ctx.exit(2)
         except KeyboardInterrupt as e:
-            signum = e.signum if isinstance(e, Interrupted) else signal.SIGINT
-            click.echo(f"odms-data: interrupted ({signal.Signals(signum).name}); nothing was left "
-                       "half-written", err=True)
-            ctx.exit(128 + signum)
+            _interrupted(ctx, e.signum if isinstance(e, Interrupted) else signal.SIGINT)
         except Exception as e:
+            if (stop := stop_within(e)) is not None:  # a stop a C extension returned as another error
+                _interrupted(ctx, stop.signum)
             if os.environ.get("ODMS_DEBUG"):
                 raise
             click.echo(
@@ -189,6 +188,12 @@ class OdmsGroup(click.Group):
                 err=True,
             )
             ctx.exit(3)
+
+
+def _interrupted(ctx: click.Context, signum: int) -> NoReturn:
+    click.echo(f"odms-data: interrupted ({signal.Signals(signum).name}); nothing was left half-written",
+               err=True)
+    ctx.exit(128 + signum)
 
 
 @click.group(cls=OdmsGroup, context_settings={"help_option_names": ["-h", "--help"]})

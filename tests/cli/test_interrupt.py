@@ -88,3 +88,35 @@ def test_stop_during_a_finalizer_is_not_lost():
     p = subprocess.run([sys.executable, "-c", FINALIZER_GETS_THE_SIGNAL], capture_output=True, text=True,
                        timeout=120)
     assert p.returncode == 128 + signal.SIGTERM and p.stderr == "", p.stderr
+
+
+def test_a_stop_a_c_extension_returned_as_another_error_is_still_a_stop():
+    """A stop whose handler ran inside a C extension can come back as the error that extension made
+    of it (Numba's dispatcher: "SystemError: ... returned a result with an exception set", caused by
+    the stop): the command says it was interrupted, not that it failed."""
+    import click
+    from click.testing import CliRunner
+
+    from odms_data.cli import OdmsGroup
+    from odms_data.errors import Interrupted
+    from odms_data.interrupts import stop_within
+
+    stop = Interrupted(signal.SIGTERM)
+    try:
+        raise SystemError("<CPUDispatcher> returned a result with an exception set") from stop
+    except SystemError as e:
+        wrapped = e
+    assert stop_within(wrapped) is stop and stop_within(stop) is stop
+    assert stop_within(ValueError("a failure")) is None
+
+    @click.command()
+    def interrupted_inside() -> None:
+        raise wrapped
+
+    class OneCommand(OdmsGroup):
+        def get_command(self, ctx, name):
+            return interrupted_inside if name == "run" else None
+
+    r = CliRunner().invoke(OneCommand(name="odms-data"), ["run"])
+    assert r.exit_code == 128 + signal.SIGTERM, r.output
+    assert r.stderr.strip() == INTERRUPTED.format("SIGTERM")

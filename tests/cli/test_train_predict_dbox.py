@@ -96,6 +96,23 @@ def test_a_stopped_run_resumes_with_the_same_batches(tmp_path, val_store):
     assert [float(r["loss"]) for r in b] == pytest.approx([float(r["loss"]) for r in a], rel=1e-4)
 
 
+def test_a_stop_returned_as_another_error_keeps_the_run_to_resume(tmp_path, val_store):
+    """A stop that a C extension turned into another error (a SystemError caused by it) is still
+    a stop: the run folder stays, to resume, where a failure removes the folder it made."""
+    from odms_data.errors import Interrupted
+
+    config = TrainConfig.recipe("dbox", iterations=4, batch_size=8, val_every=2, val=(str(val_store),))
+
+    def stopped_inside_an_extension(s):
+        if s.iteration == 2:
+            raise SystemError("returned a result with an exception set") from Interrupted(2)
+
+    with pytest.raises(SystemError):
+        train(tmp_path / "run", config, report=stopped_inside_an_extension)
+    assert torch.load(tmp_path / "run" / "last.pt", weights_only=True)["iteration"] == 2
+    assert train(tmp_path / "run", config).started_at == 2
+
+
 def test_training_leaves_the_callers_random_state_alone(tmp_path, val_store):
     """train seeds PyTorch from its config, and the caller's global random state is as it was."""
     config = TrainConfig.recipe("dbox", iterations=2, batch_size=8, val_every=2, val=(str(val_store),))
