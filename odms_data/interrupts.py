@@ -7,7 +7,8 @@
 - `uninterrupted()`: a step that a stop must not cut in two waits for it.
 - `held(signals)`: signals held on this thread while a child process starts, which inherits them
   held (parallel.py's fork server); `left_to_the_parent()`: a worker ignores Ctrl-C.
-- `stop_within(error)`: the stop an error carries, where a C extension turned it into another.
+- `stop_signal(error)`: the signal of the stop an error is or carries (a C extension may have
+  turned it into another error), None for a failure.
 """
 
 from __future__ import annotations
@@ -30,15 +31,16 @@ _deferring = 0  # depth of `uninterrupted` blocks
 _deferred: int | None = None  # the signal that came during one
 
 
-def stop_within(error: BaseException) -> Interrupted | None:
-    """The stop `error` is, or carries as its cause or context: a stop whose handler ran inside a C
-    extension can come back as another error (Numba's dispatcher then returns a SystemError caused
-    by it), and is still a stop, not a failure."""
+def stop_signal(error: BaseException) -> int | None:
+    """The signal of the stop `error` is, or carries as its cause or context (SIGINT for Python's own
+    KeyboardInterrupt); None when it is a failure. A stop whose handler ran inside a C extension can
+    come back as another error (Numba's dispatcher then returns a SystemError caused by it), and is
+    still a stop."""
     seen: set[int] = set()
     e: BaseException | None = error
     while e is not None and id(e) not in seen:
-        if isinstance(e, Interrupted):
-            return e
+        if isinstance(e, KeyboardInterrupt):
+            return e.signum if isinstance(e, Interrupted) else signal.SIGINT
         seen.add(id(e))
         e = e.__cause__ or e.__context__
     return None

@@ -21,8 +21,8 @@ from typing import Any, NoReturn
 import click
 
 from .._version import __version__
-from ..errors import Interrupted, OdmsError
-from ..interrupts import stop_within, stops_interrupt
+from ..errors import OdmsError
+from ..interrupts import stop_signal, stops_interrupt
 from ..parallel import commands_use_one_opencv_thread, safe_children
 from ..shown_text import for_terminal
 from ..urls import refuse_transient
@@ -151,7 +151,7 @@ class OdmsGroup(click.Group):
                 click.echo(_usage_line(e), err=True)
                 code = 2
             except click.Abort as e:  # an interrupt while click itself was busy (a prompt, parsing)
-                signum = e.__context__.signum if isinstance(e.__context__, Interrupted) else signal.SIGINT
+                signum = stop_signal(e) or signal.SIGINT
                 click.echo(f"odms-data: interrupted ({signal.Signals(signum).name})", err=True)
                 code = 128 + signum
         sys.exit(code if isinstance(code, int) else 0)
@@ -176,10 +176,10 @@ class OdmsGroup(click.Group):
             click.echo(f"odms-data: error: {one_line(with_fix(e))}", err=True)
             ctx.exit(2)
         except KeyboardInterrupt as e:
-            _interrupted(ctx, e.signum if isinstance(e, Interrupted) else signal.SIGINT)
+            _interrupted(ctx, stop_signal(e) or signal.SIGINT)
         except Exception as e:
-            if (stop := stop_within(e)) is not None:  # a stop a C extension returned as another error
-                _interrupted(ctx, stop.signum)
+            if (signum := stop_signal(e)) is not None:  # a stop a C extension returned as another error
+                _interrupted(ctx, signum)
             if os.environ.get("ODMS_DEBUG"):
                 raise
             click.echo(

@@ -11,8 +11,9 @@ from typing import Any
 
 import click
 
-from ..errors import InputError, Interrupted
+from ..errors import InputError
 from ..extras import install_line, optional
+from ..interrupts import stop_signal
 from ..network.variants import VARIANTS
 from ..parallel import cores
 from ..simulate.box_examples import BOX_PRESETS
@@ -137,10 +138,12 @@ def train(ctx, model, radial, run, val, iterations, batch_size, lr, val_every, n
     try:
         s = run_training(run, config, workers=cores() if workers is None else workers, device=device,
                          overwrite=overwrite, report=shown)
-    except KeyboardInterrupt as e:
+    except BaseException as e:
+        signum = stop_signal(e)  # also a stop a C extension returned as another error
+        if signum is None:
+            raise
         shown.close()
         at = shown.status.checkpoint if shown.status else 0
-        signum = e.signum if isinstance(e, Interrupted) else signal.SIGINT  # exit 128 + the signal
         click.echo(f"odms-data: interrupted ({signal.Signals(signum).name}); rerun the same command to "
                    f"resume {run} from its last checkpoint (iteration {at})", err=True)
         ctx.exit(128 + signum)

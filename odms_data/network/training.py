@@ -28,7 +28,7 @@ from torch.utils.data import DataLoader
 
 from ..errors import InputError
 from ..evaluation.metrics import percent_errors
-from ..interrupts import stop_within
+from ..interrupts import stop_signal
 from ..outputs import output_lock, replaced_via_partial
 from ..urls import refuse_url
 from .checkpoint import Checkpoint
@@ -148,7 +148,7 @@ def train(
         try:
             return _train(path, config, workers, device, overwrite, report)
         except Exception as e:
-            if made and os.path.isdir(path) and not os.path.islink(path) and stop_within(e) is None:
+            if made and os.path.isdir(path) and not os.path.islink(path) and stop_signal(e) is None:
                 shutil.rmtree(path, ignore_errors=True)
             raise
 

@@ -99,15 +99,15 @@ def test_a_stop_a_c_extension_returned_as_another_error_is_still_a_stop():
 
     from odms_data.cli import OdmsGroup
     from odms_data.errors import Interrupted
-    from odms_data.interrupts import stop_within
+    from odms_data.interrupts import stop_signal
 
     stop = Interrupted(signal.SIGTERM)
     try:
         raise SystemError("<CPUDispatcher> returned a result with an exception set") from stop
     except SystemError as e:
         wrapped = e
-    assert stop_within(wrapped) is stop and stop_within(stop) is stop
-    assert stop_within(ValueError("a failure")) is None
+    assert stop_signal(wrapped) == stop_signal(stop) == signal.SIGTERM
+    assert stop_signal(ValueError("a failure")) is None
 
     @click.command()
     def interrupted_inside() -> None:
