@@ -18,6 +18,7 @@ approaches. docs/DETECTIONS.md.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -48,11 +49,12 @@ from .result import ImportResult
 # --- RLE masks -------------------------------------------------------------------------------
 
 
-def _rle_runs(counts: str, where: str) -> list[int]:
-    """The runs of a compressed COCO RLE string (its alphabet, its 5-bit groups and the delta of
-    each run from the one two before it, as COCO's maskApi writes them)."""
-    runs: list[int] = []
-    value, shift = 0, 0
+def _rle_runs(counts: str, where: str) -> Iterator[int]:
+    """The runs of a compressed COCO RLE string, one at a time (its alphabet, its 5-bit groups and
+    the delta of each run from the one two before it, as COCO's maskApi writes them): checking a
+    string of many runs holds none of them."""
+    before: list[int] = [0, 0]  # the last two runs
+    n, value, shift = 0, 0, 0
     for ch in counts:
         c = ord(ch) - 48
         if not 0 <= c < 64:
@@ -63,15 +65,15 @@ def _rle_runs(counts: str, where: str) -> list[int]:
             continue
         if c & 0x10:
             value -= 1 << shift
-        if len(runs) > 2:
-            value += runs[-2]
+        if n > 2:
+            value += before[n % 2]
         if value < 0:
             raise InputError(f"{where}: segmentation counts has a negative run")
-        runs.append(value)
-        value, shift = 0, 0
+        yield value
+        before[n % 2] = value
+        n, value, shift = n + 1, 0, 0
     if shift:
         raise InputError(f"{where}: segmentation counts ends inside a run")
-    return runs
 
 
 def checked_rle(seg: Any, size: tuple[int, int], where: str) -> dict[str, Any]:
@@ -126,7 +128,9 @@ class RleMask:
         if self.rle is None:
             return np.zeros(self.size(), bool)
         counts = self.rle["counts"]
-        runs = _rle_runs(counts, self.where) if isinstance(counts, str) else counts
+        # checked to cover the image (checked_rle): each run fits int32, and there are no more runs
+        # than characters (MAX_RLE_CHARS)
+        runs = np.fromiter(_rle_runs(counts, self.where), np.int32) if isinstance(counts, str) else counts
         values = np.arange(len(runs)) % 2 == 1  # runs alternate, background first, column by column
         return np.ascontiguousarray(np.repeat(values, runs).reshape(self.width, self.height).T)
 
